@@ -1,0 +1,1 @@
+"""Application layer: the SMACH task-planning executive of continuous picking."""

@@ -1,0 +1,1 @@
+"""Data layer: local SQLite store of observations and mission records."""

@@ -1,0 +1,1 @@
+"""Data layer: upload of local records to the farm server."""

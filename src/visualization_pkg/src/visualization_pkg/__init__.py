@@ -1,0 +1,1 @@
+"""Presentation layer: robot description (URDF), rviz configuration and the operator dashboard."""
