@@ -1,0 +1,31 @@
+# Two commands: `make demo` and `make test` (see README.md). Both install what is missing first.
+SHELL := /bin/bash
+ROOT := $(CURDIR)
+VENV := $(ROOT)/.venv
+# The ROS interpreter's venv comes first, so no other python3 on PATH is ever used.
+export PATH := $(VENV)/bin:/usr/bin:/bin:$(PATH)
+
+.PHONY: setup build demo test lint docker-base docker-test clean
+
+setup:
+	@tools/setup.sh
+
+build: setup
+
+demo: setup
+	@tools/demo.sh
+
+test: setup
+	@tools/run_tests.sh
+
+lint: setup
+	@HARVEST_ONLY_LINT=1 tools/run_tests.sh
+
+docker-base:
+	@docker/make_base.sh
+
+docker-test: docker-base
+	@docker/build_and_test.sh
+
+clean:
+	rm -rf build devel install test_results build.log

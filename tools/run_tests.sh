@@ -1,0 +1,50 @@
+#!/bin/bash
+# Runs every check and test of the workspace and prints one pass/fail summary:
+#   catkin_lint, the Python 3.8 compatibility gate (vermin), pytest (pure logic),
+#   and the rostests (`catkin_make run_tests`).
+# Expects tools/setup.sh to have run (make test does that).
+set -uo pipefail
+ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+VENV="$ROOT/.venv"
+export PATH="$VENV/bin:/usr/bin:/bin:$PATH"
+cd "$ROOT"
+# shellcheck disable=SC1091
+source devel/setup.bash
+RESULTS="$ROOT/test_results"
+rm -rf "$RESULTS" build/test_results
+mkdir -p "$RESULTS"
+FAILED_STEPS=()
+
+echo "=== catkin_lint"
+if catkin_lint -W2 --strict --quiet src; then echo "catkin_lint: clean"; else FAILED_STEPS+=(catkin_lint); fi
+
+echo "=== Python 3.8 compatibility gate (vermin)"
+mapfile -t PYFILES < <(git ls-files '*.py'; grep -rlE '^#!.*python' --include='*' src/*/scripts src/*/nodes src/*/test tools 2>/dev/null | sort -u)
+if vermin -q --no-tips --violations --eval-annotations --target=3.8- "${PYFILES[@]}" >"$RESULTS/vermin.txt" 2>&1; then
+  echo "vermin: all ${#PYFILES[@]} files run on Python 3.8"
+else
+  cat "$RESULTS/vermin.txt"; FAILED_STEPS+=(vermin)
+fi
+
+if [ "${HARVEST_ONLY_LINT:-0}" = "1" ]; then
+  [ ${#FAILED_STEPS[@]} -eq 0 ] && exit 0 || { echo "FAILED: ${FAILED_STEPS[*]}"; exit 1; }
+fi
+
+echo "=== pytest (pure logic, no ROS master)"
+python -m pytest -q -p no:cacheprovider --junitxml="$RESULTS/pytest.xml" \
+  $(ls -d src/*/test 2>/dev/null) --ignore-glob='*/rostest/*' -o junit_family=xunit1
+rc=$?
+if [ $rc -ne 0 ] && [ $rc -ne 5 ]; then FAILED_STEPS+=(pytest); fi
+
+echo "=== rostest (nodes talking to each other)"
+if ! catkin_make -C "$ROOT" run_tests -j1 > "$RESULTS/rostest.log" 2>&1; then
+  tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
+fi
+cp -r build/test_results "$RESULTS/catkin" 2>/dev/null || true
+
+echo "=== summary"
+python tools/test_summary.py "$RESULTS" || FAILED_STEPS+=(tests)
+if [ ${#FAILED_STEPS[@]} -ne 0 ]; then
+  echo "make test: FAILED (${FAILED_STEPS[*]})"; exit 1
+fi
+echo "make test: OK"
