@@ -1,0 +1,174 @@
+"""ROS glue of the `kinematics` action server (DO_KINEMATICS); the maths is in kinematics.py.
+
+Action server ``kinematics`` (harvest_msgs/Kinematics): inverse kinematics of one arm. The goal's
+target point is transformed into ``~base_frame`` with tf2 when it is given in another frame; the
+current ``joint_states`` give the waist angle, the other arm's pose (clearance check) and this
+arm's pose (the IK branch with the smallest joint motion is chosen). Goals are answered directly
+in the goal callback (no execute_cb polling); the IK itself takes well under a millisecond.
+
+Outcomes: succeeded with reachable=true and joint_goal.positions = [lift, boom, forearm]
+(time_from_start = slowest axis at robot.yaml speeds); succeeded with reachable=false and a reason
+when the point is geometrically unreachable; aborted (reason in result and status text) for
+invalid goals: NaN, negative standoff, no transform.
+
+Subscribed: joint_states (sensor_msgs/JointState; partial messages are merged).
+Params:
+  ~robot_description_yaml  robot.yaml path (default: visualization_pkg/config/robot.yaml)
+  ~base_frame              frame the IK works in: base_link (default; waist angle from
+                           joint_states) or waist_link (waist angle taken as 0)
+  ~tf_timeout              seconds to wait for a transform of the goal point (default 0.2)
+"""
+
+import math
+import os
+import threading
+
+import actionlib
+import rospy
+import tf2_geometry_msgs  # noqa: F401  (registers PointStamped with tf2)
+import tf2_ros
+from geometry_msgs.msg import PointStamped
+from harvest_msgs.msg import KinematicsAction, KinematicsFeedback, KinematicsResult
+from sensor_msgs.msg import JointState
+
+from motion_pkg.kinematics import HOME_JOINTS, OTHER_ARM, RobotGeometry
+
+ACTION_NAME = 'kinematics'
+JOINT_STATES_TOPIC = 'joint_states'
+WAIST_JOINT = 'waist_joint'
+WAIST_FRAME = 'waist_link'
+ARM_JOINTS = ('lift', 'boom', 'forearm')
+
+
+def default_robot_yaml():
+    """visualization_pkg's config/robot.yaml, found with rospkg."""
+    import rospkg
+    return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+
+
+def arm_joint_names(arm):
+    return ['%s_%s_joint' % (arm, j) for j in ARM_JOINTS]
+
+
+class KinematicsServer(object):
+    """Answers Kinematics goals with RobotGeometry.inverse."""
+
+    def __init__(self):
+        path = rospy.get_param('~robot_description_yaml', '') or default_robot_yaml()
+        self.geometry = RobotGeometry.from_yaml(path)
+        self.base_frame = rospy.get_param('~base_frame', 'base_link')
+        self.tf_timeout = rospy.Duration(float(rospy.get_param('~tf_timeout', 0.2)))
+        self._lock = threading.Lock()
+        self._positions = {}
+        self.tf_buffer = tf2_ros.Buffer()
+        self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
+        self.joint_sub = rospy.Subscriber(JOINT_STATES_TOPIC, JointState, self._on_joint_states,
+                                          queue_size=10)
+        self.server = actionlib.SimpleActionServer(ACTION_NAME, KinematicsAction,
+                                                   auto_start=False)
+        self.server.register_goal_callback(self._on_goal)
+        self.server.start()
+        rospy.loginfo('kinematics: serving action %s in frame %s (robot description %s)',
+                      rospy.resolve_name(ACTION_NAME), self.base_frame, path)
+
+    def shutdown(self):
+        self.joint_sub.unregister()
+
+    def _on_joint_states(self, msg):
+        if len(msg.position) != len(msg.name):
+            rospy.logwarn_throttle(10.0, 'kinematics: joint_states with %d names and %d '
+                                   'positions ignored' % (len(msg.name), len(msg.position)))
+            return
+        with self._lock:
+            self._positions.update(zip(msg.name, msg.position))
+
+    def _arm_state(self, positions, arm):
+        """(lift, boom, forearm) of an arm from joint_states, or None when not all known."""
+        values = [positions.get(n) for n in arm_joint_names(arm)]
+        if any(v is None or not math.isfinite(v) for v in values):
+            return None
+        return tuple(values)
+
+    def _on_goal(self):
+        goal = self.server.accept_new_goal()
+        if goal is None:
+            return
+        try:
+            result = self.solve(goal)
+        except Exception as err:    # never leave a goal active
+            rospy.logerr('kinematics: internal error: %r' % (err,))
+            self._abort('internal error: %s' % (err,))
+            return
+        if result is None:          # aborted inside solve
+            return
+        self.server.set_succeeded(result, result.reason)
+
+    def _abort(self, reason):
+        rospy.logwarn_throttle(1.0, 'kinematics: goal rejected: %s' % reason)
+        self.server.set_aborted(KinematicsResult(reachable=False, reason=reason), reason)
+
+    def _point_in_base(self, target):
+        """xyz of the goal point in base_frame, or raise ValueError with a reason."""
+        frame = target.header.frame_id.lstrip('/')
+        p = target.point
+        if not frame or frame == self.base_frame:
+            return (p.x, p.y, p.z)
+        try:
+            out = self.tf_buffer.transform(target, self.base_frame, self.tf_timeout)
+        except tf2_ros.ExtrapolationException:
+            # stamp outside the buffer (old detection, sim clock jumps): use the latest transform
+            latest = PointStamped(header=target.header, point=target.point)
+            latest.header.stamp = rospy.Time(0)
+            try:
+                out = self.tf_buffer.transform(latest, self.base_frame, self.tf_timeout)
+            except tf2_ros.TransformException as err:
+                raise ValueError('cannot transform target from %s to %s: %s'
+                                 % (frame, self.base_frame, err))
+            rospy.logwarn_throttle(5.0, 'kinematics: no transform %s->%s at the goal stamp, '
+                                   'used the latest' % (frame, self.base_frame))
+        except tf2_ros.TransformException as err:
+            raise ValueError('cannot transform target from %s to %s: %s'
+                             % (frame, self.base_frame, err))
+        return (out.point.x, out.point.y, out.point.z)
+
+    def solve(self, goal):
+        """KinematicsResult for a goal; aborts the goal and returns None if it is invalid."""
+        p = goal.target.point
+        if not all(math.isfinite(v) for v in (p.x, p.y, p.z)):
+            self._abort('NaN in target')
+            return None
+        if not math.isfinite(goal.standoff) or goal.standoff < 0.0:
+            self._abort('standoff %r must be >= 0' % goal.standoff)
+            return None
+        try:
+            xyz = self._point_in_base(goal.target)
+        except ValueError as err:
+            self._abort(str(err))
+            return None
+        arm = 'left' if goal.arm else 'right'
+        with self._lock:
+            positions = dict(self._positions)
+        waist = 0.0 if self.base_frame == WAIST_FRAME else positions.get(WAIST_JOINT, 0.0)
+        other = self._arm_state(positions, OTHER_ARM[arm])
+        if other is None:
+            rospy.logwarn_throttle(10.0, 'kinematics: %s arm state unknown, clearance checked '
+                                   'against its home pose' % OTHER_ARM[arm])
+        current = self._arm_state(positions, arm)
+        ik = self.geometry.inverse(arm, xyz, standoff=goal.standoff, other_arm_joints=other,
+                                   current=current, waist=waist)
+        self.server.publish_feedback(KinematicsFeedback(branches_checked=len(ik.candidates)))
+        result = KinematicsResult(reachable=ik.reachable, branch=ik.branch, reason=ik.reason)
+        if ik.reachable:
+            result.joint_goal.positions = list(ik.joints)
+            start = current if current is not None else HOME_JOINTS[arm]
+            result.joint_goal.time_from_start = rospy.Duration(self.motion_time(start, ik.joints))
+        else:
+            rospy.logwarn_throttle(1.0, 'kinematics: %s arm cannot reach (%.3f, %.3f, %.3f): %s'
+                                   % (arm, xyz[0], xyz[1], xyz[2], ik.reason))
+        return result
+
+    def motion_time(self, start, end):
+        """Seconds for the slowest axis to move start -> end at robot.yaml speeds."""
+        times = [abs(b - a) / self.geometry.speed[j]
+                 for j, a, b in zip(ARM_JOINTS, start, end) if self.geometry.speed.get(j)]
+        return max(times) if times else 0.0
