@@ -1,0 +1,213 @@
+"""ROS glue of the task-planning node: parameters, emergency stop and resume, records, introspection.
+
+Node `task_planner`
+  Action clients (relative names, see config/executive.yaml `actions`): self_test, move_base,
+    tomato_scan, spatial_temporal, kinematics, move_robot, end_effector, visual_servo
+  Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: true = stop)
+  Services:   ~emergency_stop (std_srvs/Trigger), ~resume (std_srvs/Trigger)
+  Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR
+  Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
+              mission/summary (std_msgs/String, JSON totals, latched), ~state (std_msgs/String, latched)
+  Introspection: <~introspection_name>/smach/container_structure, container_status, container_init
+  Params: ~mission_id, ~picking_points (list of indices; default all of /track/picking_points),
+    ~autostart (true), ~shutdown_when_done (false), and everything of config/executive.yaml.
+"""
+import json
+import math
+import threading
+
+import rospy
+from std_msgs.msg import Bool, String
+from std_srvs.srv import Trigger, TriggerResponse
+
+from harvest_msgs.msg import MissionEvent, PickRecord
+from control_pkg.smach_compat import IntrospectionServer
+from control_pkg import executive
+from control_pkg import mission as mission_lib
+
+_OUTCOME_CODES = {
+    mission_lib.OUTCOME_PICKED: PickRecord.OUTCOME_PICKED,
+    mission_lib.OUTCOME_UNREACHABLE: PickRecord.OUTCOME_UNREACHABLE,
+    mission_lib.OUTCOME_LOST: PickRecord.OUTCOME_LOST,
+    mission_lib.OUTCOME_FAILED: PickRecord.OUTCOME_FAILED,
+}
+
+DEFAULTS = {
+    'base_frame': 'base_link',
+    'server_wait_timeout': 10.0,
+    'peduncle_gap': 0.01,
+    'left_approach_standoff': 0.03,
+    'actions': {
+        'self_test': 'self_test', 'move_base': 'move_base', 'tomato_scan': 'tomato_scan',
+        'spatial_temporal': 'spatial_temporal', 'kinematics': 'kinematics', 'move_robot': 'move_robot',
+        'end_effector': 'end_effector', 'visual_servo': 'visual_servo',
+    },
+    'timeouts': {
+        'self_test': 60.0, 'move_base': 180.0, 'tomato_scan': 30.0, 'spatial_temporal': 30.0,
+        'kinematics': 5.0, 'move_robot': 60.0, 'end_effector': 10.0, 'visual_servo': 90.0,
+    },
+    'retries': {'move_base': 1, 'tomato_scan': 1, 'spatial_temporal': 1, 'move_robot': 1},
+    'home': {'left': [0.0, 1.2, -1.8], 'right': [0.0, -1.2, 1.8]},
+    'collection_box_right': [0.05, -1.2, 1.8],
+    'self_test_components': [],
+}
+
+
+def merged_config(overrides):
+    """DEFAULTS updated one level deep with `overrides` (a dict from the parameter server)."""
+    cfg = {}
+    for key, value in DEFAULTS.items():
+        if isinstance(value, dict):
+            merged = dict(value)
+            merged.update((overrides or {}).get(key, {}) or {})
+            cfg[key] = merged
+        else:
+            cfg[key] = (overrides or {}).get(key, value)
+    for key in ('home', ):
+        for arm in ('left', 'right'):
+            joints = cfg[key][arm]
+            if len(joints) != 3 or any(math.isnan(float(j)) for j in joints):
+                raise ValueError('%s/%s must be 3 finite joint values [lift, boom, forearm], got %r'
+                                 % (key, arm, joints))
+    return cfg
+
+
+class TaskPlanner(object):
+    """Builds the state machine, wires emergency stop/resume and records, and runs the mission."""
+
+    def __init__(self):
+        overrides = {k: rospy.get_param('~' + k) for k in DEFAULTS if rospy.has_param('~' + k)}
+        try:
+            self.config = merged_config(overrides)
+        except ValueError as exc:
+            rospy.logfatal('task_planner: bad configuration: %s', exc)
+            raise
+        self.mission_id = rospy.get_param('~mission_id', '') or 'mission-%d' % int(rospy.get_time() * 1000)
+        self.progress = mission_lib.Progress(loader=self._load_points)
+        self.recorder = mission_lib.MissionRecorder(self.mission_id)
+        self.shutdown_when_done = rospy.get_param('~shutdown_when_done', False)
+
+        self._record_pub = rospy.Publisher('mission/pick_records', PickRecord, queue_size=100)
+        self._event_pub = rospy.Publisher('mission/events', MissionEvent, queue_size=100)
+        self._summary_pub = rospy.Publisher('mission/summary', String, queue_size=1, latch=True)
+        self._state_pub = rospy.Publisher('~state', String, queue_size=1, latch=True)
+        self._halt = rospy.ServiceProxy('halt_all', Trigger)
+
+        self.estop = threading.Event()
+        self.resume = threading.Event()
+        self.context = executive.MissionContext(self.config, self.progress, self.recorder,
+                                                publish_event=self.publish_event,
+                                                publish_record=self.publish_record, halt=self.halt_axes)
+        self.sm = executive.build_state_machine(self.context, self.estop, self.resume)
+        self._introspection = IntrospectionServer(rospy.get_param('~introspection_name', 'harvest_executive'),
+                                                  self.sm, '/SM_ROOT')
+        self._introspection.start()
+        rospy.Subscriber('emergency_stop', Bool, self._estop_topic_cb, queue_size=10)
+        rospy.Service('~emergency_stop', Trigger, self._estop_srv)
+        rospy.Service('~resume', Trigger, self._resume_srv)
+        self.outcome = None
+        self._thread = None
+        rospy.on_shutdown(self.on_shutdown)
+        rospy.loginfo('task_planner: mission %s ready', self.mission_id)
+
+    @staticmethod
+    def _load_points():
+        """The picking points to visit: ~picking_points, else every point of the track's layout.
+
+        Read when the mission reaches its first point (after DO_START), so the track layout
+        (/track/picking_points, set by the site configuration or the simulator) may come late.
+        """
+        points = rospy.get_param('~picking_points', None)
+        if points is None:
+            track = rospy.get_param('track/picking_points', None)
+            if track is None:
+                raise ValueError('no picking points: neither ~picking_points nor track/picking_points is set')
+            points = list(range(len(track)))
+        rospy.loginfo('task_planner: %d picking points to visit: %s', len(points), points)
+        return [int(p) for p in points]
+
+    # --- emergency stop and resume ---------------------------------------------------------------
+    def _estop_topic_cb(self, msg):
+        if msg.data:
+            self.request_stop('emergency_stop topic')
+        else:
+            self.request_resume('emergency_stop topic released')
+
+    def _estop_srv(self, req):
+        self.request_stop('emergency_stop service')
+        return TriggerResponse(success=True, message='emergency stop requested')
+
+    def _resume_srv(self, req):
+        if not self.estop.is_set():
+            return TriggerResponse(success=False, message='not stopped')
+        self.request_resume('resume service')
+        return TriggerResponse(success=True, message='resume requested')
+
+    def request_stop(self, source):
+        if not self.estop.is_set():
+            rospy.logwarn('task_planner: emergency stop from %s', source)
+            self.estop.set()
+            self.sm.estop_monitor.wake()
+
+    def request_resume(self, source):
+        if self.estop.is_set():
+            rospy.loginfo('task_planner: resume from %s', source)
+            self.resume.set()
+
+    def halt_axes(self):
+        try:
+            self._halt.wait_for_service(timeout=2.0)
+            resp = self._halt()
+            return resp.success, resp.message
+        except (rospy.ROSException, rospy.ServiceException) as exc:
+            return False, 'halt_all unavailable: %s' % exc
+
+    # --- records ---------------------------------------------------------------------------------
+    def publish_event(self, kind, state, detail):
+        self._event_pub.publish(MissionEvent(mission_id=self.mission_id, stamp=rospy.Time.now(), kind=kind,
+                                             state=state, detail=detail))
+        if kind in ('state', 'estop', 'resume', 'fault'):
+            self._state_pub.publish(String(data='%s: %s' % (state, detail)))
+
+    def publish_record(self, record):
+        if record is None:
+            return
+        msg = PickRecord(mission_id=self.mission_id, picking_point=int(record.picking_point),
+                         target_id=int(record.target_id), outcome=_OUTCOME_CODES[record.outcome],
+                         reason=record.reason, state_names=list(record.state_names),
+                         state_durations=list(record.state_durations), cycle_time=record.cycle_time,
+                         stamp=rospy.Time.now())
+        msg.pick_point.header.frame_id = self.config['base_frame']
+        msg.pick_point.point.x, msg.pick_point.point.y, msg.pick_point.point.z = record.position
+        self._record_pub.publish(msg)
+
+    # --- running ---------------------------------------------------------------------------------
+    def start(self):
+        self._thread = threading.Thread(target=self._run, name='task_planner')
+        self._thread.daemon = True
+        self._thread.start()
+
+    def _run(self):
+        try:
+            self.outcome = self.sm.execute()
+        except Exception as exc:  # noqa: BLE001 - a crashed machine must still be reported
+            rospy.logerr('task_planner: state machine raised: %s', exc)
+            self.context.fail('executive exception: %s' % exc)
+            self.outcome = 'aborted'
+        self.recorder.finish(rospy.get_time())
+        totals = self.recorder.totals()
+        totals['outcome'] = self.outcome
+        totals['last_error'] = self.context.last_error
+        self._summary_pub.publish(String(data=json.dumps(totals, default=str)))
+        self.publish_event('summary', '', json.dumps(totals, default=str))
+        rospy.loginfo('task_planner: mission %s ended %s: picked %d, unreachable %d, lost %d, failed %d',
+                      self.mission_id, self.outcome, totals['picked'], totals['unreachable'], totals['lost'],
+                      totals['failed'])
+        if self.shutdown_when_done:
+            rospy.signal_shutdown('mission ended')
+
+    def on_shutdown(self):
+        if self.sm.is_running():
+            self.sm.request_preempt()
+        self.resume.set()
+        self._introspection.stop()

@@ -1,0 +1,140 @@
+#!/usr/bin/env python3
+"""Executive rostests against the mock servers: whole missions, emergency stop/resume, DO_ERROR."""
+import json
+import threading
+import unittest
+
+import rospy
+import rostest
+from smach_msgs.msg import SmachContainerStatus, SmachContainerStructure
+from std_msgs.msg import Bool, Int32, String
+from std_srvs.srv import Trigger
+
+from harvest_msgs.msg import PickRecord
+
+WAIT = 60.0
+
+
+class Watcher(object):
+    """Collects what the executive publishes; tests wait on its conditions with timeouts."""
+
+    def __init__(self):
+        self.cond = threading.Condition()
+        self.summary = None
+        self.records = []
+        self.structures = {}
+        self.active = {}
+        self.halts = 0
+        self.state = ''
+        rospy.Subscriber('mission/summary', String, self._summary)
+        rospy.Subscriber('mission/pick_records', PickRecord, self._record)
+        rospy.Subscriber('/harvest_executive/smach/container_structure', SmachContainerStructure, self._structure)
+        rospy.Subscriber('/harvest_executive/smach/container_status', SmachContainerStatus, self._status)
+        rospy.Subscriber('mock/halt_count', Int32, self._halt)
+        rospy.Subscriber('task_planner/state', String, self._state)
+
+    def _update(self, fn):
+        with self.cond:
+            fn()
+            self.cond.notify_all()
+
+    def _summary(self, msg):
+        self._update(lambda: setattr(self, 'summary', json.loads(msg.data)))
+
+    def _record(self, msg):
+        self._update(lambda: self.records.append(msg))
+
+    def _structure(self, msg):
+        self._update(lambda: self.structures.__setitem__(msg.path, msg))
+
+    def _status(self, msg):
+        self._update(lambda: self.active.__setitem__(msg.path, list(msg.active_states)))
+
+    def _halt(self, msg):
+        self._update(lambda: setattr(self, 'halts', msg.data))
+
+    def _state(self, msg):
+        self._update(lambda: setattr(self, 'state', msg.data))
+
+    def wait(self, predicate, timeout=WAIT):
+        deadline = rospy.get_time() + timeout
+        with self.cond:
+            while not predicate():
+                left = deadline - rospy.get_time()
+                if left <= 0 or rospy.is_shutdown():
+                    return False
+                self.cond.wait(min(left, 0.5))
+            return True
+
+
+class ExecutiveTest(unittest.TestCase):
+    def setUp(self):
+        self.w = WATCHER
+
+    def test_mission(self):
+        mode = rospy.get_param('~mode')
+        getattr(self, 'check_' + mode)()
+
+    def check_mission(self):
+        w = self.w
+        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
+        s = w.summary
+        self.assertEqual(s['outcome'], 'succeeded', s)
+        self.assertEqual(s['points_visited'], 2)
+        self.assertEqual((s['picked'], s['unreachable'], s['lost'], s['failed']), (1, 1, 1, 0), s)
+        self.assertTrue(w.wait(lambda: len(w.records) == 3), 'expected 3 pick records, got %d' % len(w.records))
+        outcomes = sorted(r.outcome for r in w.records)
+        self.assertEqual(outcomes, [PickRecord.OUTCOME_PICKED, PickRecord.OUTCOME_UNREACHABLE,
+                                    PickRecord.OUTCOME_LOST])
+        picked = [r for r in w.records if r.outcome == PickRecord.OUTCOME_PICKED][0]
+        for label in ('DO_KINEMATICS', 'DO_MOVE_ROBOT', 'DO_MOVE_ENDEFFECTOR', 'DO_VISUALSERVOING'):
+            self.assertIn(label, picked.state_names)
+        self.assertEqual(len(picked.state_names), len(picked.state_durations))
+        unreachable = [r for r in w.records if r.outcome == PickRecord.OUTCOME_UNREACHABLE][0]
+        self.assertIn('beyond reach', unreachable.reason)
+        # the introspection graph reads like Figure 14
+        paths = ['/SM_ROOT', '/SM_ROOT/RUN/MISSION', '/SM_ROOT/RUN/MISSION/SCAN',
+                 '/SM_ROOT/RUN/MISSION/PICK_TARGET/LEFT_ARM']
+        self.assertTrue(w.wait(lambda: all(p in w.structures for p in paths)),
+                        'structures seen: %s' % sorted(w.structures))
+        mission = w.structures['/SM_ROOT/RUN/MISSION']
+        for label in ('DO_START', 'DO_MOVEBASE', 'SCAN', 'PICK_TARGET', 'DO_ERROR'):
+            self.assertIn(label, mission.children)
+        self.assertIn('DO_STOP', w.structures['/SM_ROOT'].children)
+        scan = w.structures['/SM_ROOT/RUN/MISSION/SCAN']
+        self.assertEqual(sorted(scan.children), ['DO_SPATIAL_TEMPORAL', 'DO_TOMATO_SCAN'])
+        left = w.structures['/SM_ROOT/RUN/MISSION/PICK_TARGET/LEFT_ARM']
+        self.assertIn('DO_VISUALSERVOING', left.children)
+
+    def check_estop(self):
+        w = self.w
+        path = '/SM_ROOT/RUN/MISSION/PICK_TARGET/RIGHT_ARM'
+        self.assertTrue(w.wait(lambda: w.active.get(path) == ['DO_MOVE_ROBOT']),
+                        'right-arm move never became active: %s' % w.active)
+        pub = rospy.Publisher('emergency_stop', Bool, queue_size=1, latch=True)
+        pub.publish(Bool(data=True))
+        self.assertTrue(w.wait(lambda: w.halts >= 1), 'axes were not halted')
+        self.assertTrue(w.wait(lambda: w.active.get('/SM_ROOT') == ['DO_STOP']), 'not paused in DO_STOP')
+        self.assertIsNone(w.summary, 'mission must stay paused, not end')
+        rospy.wait_for_service('task_planner/resume', timeout=10.0)
+        resp = rospy.ServiceProxy('task_planner/resume', Trigger)()
+        self.assertTrue(resp.success, resp.message)
+        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary after resume')
+        s = w.summary
+        self.assertEqual(s['outcome'], 'succeeded', s)
+        self.assertEqual(s['picked'], 2, s)
+
+    def check_missing(self):
+        w = self.w
+        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
+        s = w.summary
+        self.assertEqual(s['outcome'], 'aborted', s)
+        self.assertEqual(s['picked'], 0)
+        self.assertIn('visual_servo', s['last_error'])
+        self.assertTrue(w.wait(lambda: w.halts >= 1), 'DO_ERROR must halt the axes')
+
+
+if __name__ == '__main__':
+    rospy.init_node('executive_test')
+    WATCHER = Watcher()
+    rostest.rosrun('control_pkg', 'executive_test', ExecutiveTest)

@@ -1,0 +1,137 @@
+#!/usr/bin/env python3
+"""Test fixture: mock action servers for every module the executive drives.
+
+Params:
+  ~points (int): number of picking points (sets /track/picking_points)
+  ~targets (dict: point index as string -> list of {id, unreachable?, lose?}): pickable tomatoes
+  ~missing (list of action names): servers NOT started (a component missing at start)
+  ~move_duration (float, s): how long a MoveRobot goal takes (preemptable)
+Publishes mock/halt_count (std_msgs/Int32, latched) and mock/goals (std_msgs/String: "<action> <detail>").
+"""
+import threading
+
+import actionlib
+import rospy
+from diagnostic_msgs.msg import DiagnosticStatus
+from std_msgs.msg import Int32, String
+from std_srvs.srv import Trigger, TriggerResponse
+
+from harvest_msgs.msg import (StartAction, StartResult, MoveBaseAction, MoveBaseResult, TomatoScanAction,
+                              TomatoScanResult, SpatialTemporalAction, SpatialTemporalResult,
+                              KinematicsAction, KinematicsResult, MoveRobotAction, MoveRobotResult,
+                              EndEffectorAction, EndEffectorResult, VisualServoAction, VisualServoResult,
+                              Tomato)
+
+
+class MockServers(object):
+    def __init__(self):
+        self.points = int(rospy.get_param('~points', 2))
+        rospy.set_param('/track/picking_points', [0.6 * i for i in range(self.points)])
+        self.targets = {int(k): v for k, v in rospy.get_param('~targets', {}).items()}
+        self.missing = set(rospy.get_param('~missing', []))
+        self.move_duration = float(rospy.get_param('~move_duration', 0.05))
+        self.point = 0
+        self.halts = 0
+        self.halt_event = threading.Event()
+        self.picked = set()
+        self.by_position = {}
+        self._halt_pub = rospy.Publisher('mock/halt_count', Int32, queue_size=1, latch=True)
+        self._goal_pub = rospy.Publisher('mock/goals', String, queue_size=100)
+        self._status_pub = rospy.Publisher('motion_status', DiagnosticStatus, queue_size=1, latch=True)
+        self._status_pub.publish(DiagnosticStatus(level=DiagnosticStatus.OK, name='motion', message='ok'))
+        self._halt_pub.publish(Int32(data=0))
+        rospy.Service('halt_all', Trigger, self.halt)
+        self.servers = []
+        for name, spec, cb in [('self_test', StartAction, self.self_test), ('move_base', MoveBaseAction, self.move_base),
+                               ('tomato_scan', TomatoScanAction, self.scan),
+                               ('spatial_temporal', SpatialTemporalAction, self.spatial_temporal),
+                               ('kinematics', KinematicsAction, self.kinematics),
+                               ('move_robot', MoveRobotAction, self.move_robot),
+                               ('end_effector', EndEffectorAction, self.end_effector),
+                               ('visual_servo', VisualServoAction, self.visual_servo)]:
+            if name in self.missing:
+                continue
+            server = actionlib.SimpleActionServer(name, spec, execute_cb=cb, auto_start=False)
+            setattr(self, name + '_server', server)
+            server.start()
+            self.servers.append(server)
+
+    def note(self, text):
+        self._goal_pub.publish(String(data=text))
+
+    def halt(self, req):
+        self.halts += 1
+        self.halt_event.set()
+        self._halt_pub.publish(Int32(data=self.halts))
+        return TriggerResponse(success=True, message='halted')
+
+    def self_test(self, goal):
+        self.self_test_server.set_succeeded(StartResult(success=True, message='ok'))
+
+    def move_base(self, goal):
+        self.point = goal.picking_point
+        self.note('move_base %d' % goal.picking_point)
+        self.move_base_server.set_succeeded(MoveBaseResult(success=True, track_position=0.6 * goal.picking_point))
+
+    def scan(self, goal):
+        result = TomatoScanResult(success=True)
+        order = 0
+        for spec in self.targets.get(goal.picking_point, []):
+            key = (goal.picking_point, int(spec['id']))
+            if key in self.picked:
+                continue
+            t = Tomato(id=int(spec['id']), radius=0.03, ripeness_stage=Tomato.STAGE_RED, ripeness_score=0.9,
+                       pickable=True, pick_order=order)
+            t.pick_point.header.frame_id = 'base_link'
+            t.pick_point.point.x = 0.5
+            t.pick_point.point.y = 0.01 * int(spec['id'])
+            t.pick_point.point.z = 0.9
+            self.by_position[round(t.pick_point.point.y, 4)] = spec
+            result.tomatoes.tomatoes.append(t)
+            order += 1
+        result.pickable_count = order
+        self.tomato_scan_server.set_succeeded(result)
+
+    def spatial_temporal(self, goal):
+        self.spatial_temporal_server.set_succeeded(SpatialTemporalResult(success=True, stored=0))
+
+    def kinematics(self, goal):
+        spec = self.by_position.get(round(goal.target.point.y, 4), {})
+        result = KinematicsResult()
+        if spec.get('unreachable'):
+            result.reachable = False
+            result.reason = 'beyond reach (mock)'
+        else:
+            result.reachable = True
+            result.joint_goal.positions = [0.1, 0.2, 0.3]
+        self.kinematics_server.set_succeeded(result)
+
+    def move_robot(self, goal):
+        self.note('move_robot %s' % ('left' if goal.arm else 'right'))
+        done = threading.Event()
+        deadline = rospy.Time.now() + rospy.Duration(self.move_duration)
+        while rospy.Time.now() < deadline and not rospy.is_shutdown():
+            if self.move_robot_server.is_preempt_requested():
+                self.move_robot_server.set_preempted(MoveRobotResult(succeed=-3), 'preempted, axes halted')
+                return
+            done.wait(0.01)
+        self.move_robot_server.set_succeeded(MoveRobotResult(succeed=1))
+
+    def end_effector(self, goal):
+        self.note('end_effector %d' % goal.command)
+        self.end_effector_server.set_succeeded(EndEffectorResult(success=True, vacuum_ok=goal.command == 1))
+
+    def visual_servo(self, goal):
+        spec = self.by_position.get(round(goal.target.point.y, 4), {})
+        if spec.get('lose'):
+            self.visual_servo_server.set_aborted(VisualServoResult(success=False, message='target lost'),
+                                                 'target lost')
+            return
+        self.picked.add((self.point, int(spec.get('id', -1))))
+        self.visual_servo_server.set_succeeded(VisualServoResult(success=True, iterations=3, final_error=0.001))
+
+
+if __name__ == '__main__':
+    rospy.init_node('mock_harvest_servers')
+    MockServers()
+    rospy.spin()
