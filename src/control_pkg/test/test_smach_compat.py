@@ -1,0 +1,151 @@
+"""SMACH core on this Python through control_pkg.smach_compat (no ROS master needed)."""
+import subprocess
+import sys
+import threading
+
+import pytest
+
+from control_pkg import smach_compat
+from control_pkg.smach_compat import smach
+
+JOIN_TIMEOUT = 10.0
+
+
+class GateState(smach.State):
+    """Waits on an Event until released or preempted (no polling)."""
+
+    def __init__(self, outcome='done'):
+        smach.State.__init__(self, outcomes=[outcome, 'preempted'], output_keys=['log'])
+        self.outcome = outcome
+        self.started = threading.Event()
+        self.gate = threading.Event()
+
+    def execute(self, ud):
+        self.started.set()
+        self.gate.wait()
+        if self.preempt_requested():
+            self.service_preempt()
+            return 'preempted'
+        ud.log = self.outcome
+        return self.outcome
+
+    def request_preempt(self):
+        smach.State.request_preempt(self)
+        self.gate.set()
+
+
+def run_in_thread(state, userdata=None):
+    """Execute `state` in a thread; returns (thread, result dict)."""
+    result = {}
+
+    def target():
+        try:
+            result['outcome'] = state.execute(userdata if userdata is not None
+                                              else smach.UserData())
+        except Exception as ex:  # reported by the test, not lost in the thread
+            result['error'] = ex
+
+    thread = threading.Thread(target=target)
+    thread.daemon = True
+    thread.start()
+    return thread, result
+
+
+def finish(thread, result):
+    thread.join(JOIN_TIMEOUT)
+    assert not thread.is_alive(), 'state did not finish within %.0f s' % JOIN_TIMEOUT
+    assert 'error' not in result, result.get('error')
+    return result['outcome']
+
+
+def make_concurrence(**kwargs):
+    return smach.Concurrence(outcomes=['succeeded', 'aborted', 'preempted'],
+                             default_outcome='aborted',
+                             outcome_map={'succeeded': {'A': 'done', 'B': 'ok'},
+                                          'preempted': {'A': 'preempted',
+                                                        'B': 'preempted'}},
+                             **kwargs)
+
+
+def test_patch_is_contained_and_idempotent():
+    assert smach_compat.CONCURRENCE_PATCHED
+    assert smach.concurrence.threading.Event is threading.Event
+    thread = smach.concurrence.threading.Thread(target=lambda: None)
+    assert hasattr(thread, 'isAlive') and not thread.isAlive()
+    if sys.version_info >= (3, 9):
+        assert not hasattr(threading.Thread, 'isAlive'), 'the stdlib must stay untouched'
+    proxy = smach.concurrence.threading
+    assert smach_compat._patch_concurrence()
+    assert smach.concurrence.threading is proxy
+
+
+def test_importing_smach_needs_no_rospy():
+    code = ('import sys, control_pkg.smach_compat as c; '
+            'assert "rospy" not in sys.modules, "rospy imported"; '
+            'assert "smach_ros" not in sys.modules')
+    subprocess.check_call([sys.executable, '-c', code])
+
+
+def test_concurrence_runs_to_completion():
+    a, b = GateState('done'), GateState('ok')
+    con = make_concurrence(output_keys=['log'])
+    with con:
+        smach.Concurrence.add('A', a)
+        smach.Concurrence.add('B', b, remapping={'log': 'log_b'})
+    thread, result = run_in_thread(con)
+    assert a.started.wait(JOIN_TIMEOUT) and b.started.wait(JOIN_TIMEOUT)
+    a.gate.set()
+    b.gate.set()
+    assert finish(thread, result) == 'succeeded'
+    assert con.userdata.log == 'done' and con.userdata.log_b == 'ok'
+
+
+def test_concurrence_quick_children_in_a_state_machine():
+    sm = smach.StateMachine(outcomes=['finished', 'failed'])
+    with sm:
+        con = smach.Concurrence(outcomes=['ok', 'bad'], default_outcome='bad',
+                                outcome_map={'ok': {'X': 'x', 'Y': 'y'}})
+        with con:
+            smach.Concurrence.add('X', smach.CBState(lambda ud: 'x', outcomes=['x']))
+            smach.Concurrence.add('Y', smach.CBState(lambda ud: 'y', outcomes=['y']))
+        smach.StateMachine.add('CON', con, transitions={'ok': 'finished', 'bad': 'failed'})
+    for _ in range(3):  # re-entering a Concurrence works too
+        assert finish(*run_in_thread(sm)) == 'finished'
+
+
+def test_concurrence_preempted_from_another_thread():
+    a, b = GateState('done'), GateState('ok')
+    con = make_concurrence()
+    with con:
+        smach.Concurrence.add('A', a)
+        smach.Concurrence.add('B', b)
+    thread, result = run_in_thread(con)
+    assert a.started.wait(JOIN_TIMEOUT) and b.started.wait(JOIN_TIMEOUT)
+    preempter = threading.Thread(target=con.request_preempt)
+    preempter.start()
+    preempter.join(JOIN_TIMEOUT)
+    assert finish(thread, result) == 'preempted'
+    assert not con.preempt_requested(), 'the concurrence serviced the preempt'
+    assert not a.preempt_requested() and not b.preempt_requested()
+
+
+def test_child_termination_cb_preempts_the_rest():
+    """The monitor pattern: one child ending stops the others."""
+    a, b = GateState('done'), GateState('ok')
+    con = smach.Concurrence(outcomes=['first_done', 'aborted'], default_outcome='aborted',
+                            outcome_map={'first_done': {'A': 'done', 'B': 'preempted'}},
+                            child_termination_cb=lambda outcomes: True)
+    with con:
+        smach.Concurrence.add('A', a)
+        smach.Concurrence.add('B', b)
+    thread, result = run_in_thread(con)
+    assert a.started.wait(JOIN_TIMEOUT) and b.started.wait(JOIN_TIMEOUT)
+    a.gate.set()
+    assert finish(thread, result) == 'first_done'
+
+
+def test_ros_names_are_lazy_and_known():
+    with pytest.raises(AttributeError):
+        getattr(smach_compat, 'NoSuchThing')
+    assert 'SimpleActionState' in smach_compat.__all__
+    assert isinstance(smach_compat.HAVE_SMACH_ROS, bool)
