@@ -20,9 +20,9 @@ log() { echo "[docker-test] $*"; }
 log "building $IMAGE from the $CONTEXT (log: test_results/docker-build.log)"
 start=$(date +%s)
 case "$CONTEXT" in
-  tree) $SUDO docker build --network host -f docker/Dockerfile -t "$IMAGE" . ;;
+  tree) $SUDO docker build --force-rm --network host -f docker/Dockerfile -t "$IMAGE" . ;;
   head) git archive --format=tar HEAD \
-          | $SUDO docker build --network host -f docker/Dockerfile -t "$IMAGE" - ;;
+          | $SUDO docker build --force-rm --network host -f docker/Dockerfile -t "$IMAGE" - ;;
   *) log "HARVEST_DOCKER_CONTEXT must be tree or head, not '$CONTEXT'"; exit 2 ;;
 esac > "$LOGDIR/docker-build.log" 2>&1 || {
   tail -60 "$LOGDIR/docker-build.log"; log "image build FAILED"; exit 1; }

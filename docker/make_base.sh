@@ -111,6 +111,12 @@ EOF
 apt-config dump 2>/dev/null \
   | grep -E '^Acquire::(Check-Valid-Until|Check-Date|https?::Proxy) ' \
   | $SUDO tee "$ROOTFS/etc/apt/apt.conf.d/90host-mirror" >/dev/null || true
+# TLS inside the image trusts the same local CAs as this host (an HTTPS-intercepting egress
+# proxy in front of PyPI, say): update-ca-certificates adds them when ca-certificates installs.
+if compgen -G "/usr/local/share/ca-certificates/*.crt" >/dev/null; then
+  $SUDO mkdir -p "$ROOTFS/usr/local/share/ca-certificates"
+  $SUDO cp /usr/local/share/ca-certificates/*.crt "$ROOTFS/usr/local/share/ca-certificates/"
+fi
 # Image hygiene: no package cache kept, no translations, no recommends.
 $SUDO tee "$ROOTFS/etc/apt/apt.conf.d/90image-slim" >/dev/null <<'EOF'
 Dir::Cache::pkgcache "";
