@@ -1,0 +1,121 @@
+"""`make demo`: the simulated continuous harvest from one command, headless.
+
+Starts a private ROS master and `harvest_bringup sim.launch` (simulated plant factory + the whole
+robot stack), waits for the executive's mission summary, reads the simulator's ground truth
+(allowed here: this is a benchmark harness, not part of the robot stack) and prints
+
+  mission: picked P of R ripe reachable, damaged D, skipped S, mean cycle C s/fruit (sim), wall W s
+
+Exit status 0 only when the mission ended `succeeded`.
+"""
+import argparse
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+DEFAULT_TIMEOUT = 900.0   # wall seconds
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(('127.0.0.1', 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def ground_truth_counts(fruits_msg):
+    """(ripe reachable, harvested, damaged) from a /sim/fruits message (harvest_sim's array type)."""
+    fruits = list(getattr(fruits_msg, 'fruits', []))
+    ripe_reachable = [f for f in fruits if f.ripe and f.reachable]
+    harvested_states = ('harvested', 'collected', 'held_cut')
+    harvested = [f for f in fruits if str(getattr(f, 'state', '')).lower() in harvested_states]
+    damaged = [f for f in fruits if str(getattr(f, 'state', '')).lower() in ('dropped', 'damaged')]
+    return len(ripe_reachable), len(harvested), len(damaged)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--scenario', default=os.environ.get('HARVEST_SCENARIO', 'default'))
+    parser.add_argument('--time-scale', type=float, default=float(os.environ.get('HARVEST_TIME_SCALE', '5')))
+    parser.add_argument('--timeout', type=float, default=DEFAULT_TIMEOUT, help='wall seconds')
+    parser.add_argument('--log', default='demo.log', help='roslaunch output file')
+    args = parser.parse_args()
+
+    port = free_port()
+    env = dict(os.environ)
+    env['ROS_MASTER_URI'] = 'http://127.0.0.1:%d' % port
+    env['ROS_HOSTNAME'] = 'localhost'
+    os.environ.update({'ROS_MASTER_URI': env['ROS_MASTER_URI'], 'ROS_HOSTNAME': 'localhost'})
+    db_path = os.path.abspath('demo_harvest.db')
+    wall_start = time.time()
+    log = open(args.log, 'w')
+    launch = subprocess.Popen(
+        ['roslaunch', '-p', str(port), 'harvest_bringup', 'sim.launch', 'scenario:=%s' % args.scenario,
+         'time_scale:=%g' % args.time_scale, 'db_path:=%s' % db_path, 'mission_id:=demo'],
+        stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+    print('[demo] roslaunch harvest_bringup sim.launch scenario:=%s time_scale:=%g (log: %s)'
+          % (args.scenario, args.time_scale, args.log))
+    sys.stdout.flush()
+
+    import rospy
+    import rostopic
+    from std_msgs.msg import String
+
+    done = threading.Event()
+    state = {}
+
+    def on_summary(msg):
+        state['summary'] = json.loads(msg.data)
+        done.set()
+
+    code = 1
+    try:
+        # wait for the master roslaunch started
+        import rosgraph
+        deadline = time.time() + 60.0
+        while not rosgraph.is_master_online():
+            if time.time() > deadline or launch.poll() is not None:
+                print('[demo] roslaunch did not start a master; see %s' % args.log)
+                return 1
+            time.sleep(0.2)   # harness polling the master from outside ROS; not node code
+        rospy.init_node('harvest_demo', anonymous=True, disable_signals=True)
+        rospy.Subscriber('/mission/summary', String, on_summary)
+        while not done.wait(1.0):
+            if launch.poll() is not None:
+                print('[demo] the launch ended before the mission did; see %s' % args.log)
+                return 1
+            if time.time() - wall_start > args.timeout:
+                print('[demo] no mission summary within %.0f s; see %s' % (args.timeout, args.log))
+                return 1
+        wall = time.time() - wall_start
+        summary = state['summary']
+        fruits_class, _, _ = rostopic.get_topic_class('/sim/fruits')
+        truth = rospy.wait_for_message('/sim/fruits', fruits_class, timeout=10.0) if fruits_class else None
+        ripe_reachable, harvested, damaged = ground_truth_counts(truth) if truth else (-1, -1, -1)
+        skipped = summary['unreachable'] + summary['lost'] + summary['failed']
+        from control_pkg.mission import summary_line
+        print('[demo] mission %s ended %s after %d picking points; executive record: picked %d, '
+              'unreachable %d, lost %d, failed %d%s' % (
+                  summary['mission_id'], summary['outcome'], summary['points_visited'], summary['picked'],
+                  summary['unreachable'], summary['lost'], summary['failed'],
+                  ('; last error: %s' % summary['last_error']) if summary.get('last_error') else ''))
+        print(summary_line(harvested, ripe_reachable, damaged, skipped, summary['mean_cycle_time'], wall))
+        code = 0 if summary['outcome'] == 'succeeded' else 1
+    finally:
+        try:
+            os.killpg(launch.pid, signal.SIGINT)
+            launch.wait(timeout=30)
+        except (subprocess.TimeoutExpired, ProcessLookupError):
+            os.killpg(launch.pid, signal.SIGKILL)
+        log.close()
+    return code
+
+
+if __name__ == '__main__':
+    sys.exit(main())
