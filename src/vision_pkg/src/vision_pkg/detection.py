@@ -1,0 +1,343 @@
+"""Tomato detection by colour and shape feature fusion (section 3.5.1.2), rospy-free.
+
+Pipeline for one BGR image (run at ~scale for speed, results in full-resolution pixels):
+  1. colour evidence: HSV hue/saturation/value gate for fruit colours (red through yellow-green,
+     i.e. not leaf green), so green, turning, pink and red fruit all enter the candidate mask;
+  2. shape evidence: the distance transform of each connected candidate region; its local maxima
+     (non-maximum suppressed) are fruit centres, which splits touching fruit in a cluster; the
+     region's pixels go to the nearest centre in the power-diagram sense (|x - c|^2 - r^2);
+  3. a circle fitted to each part's outer boundary points that lie on its convex hull (leaf
+     notches and the cut between touching fruit are ignored), validated by fill ratio and by
+     the fraction of the part inside the circle; green parts must look rounder than ripe ones;
+  4. ripeness from the mean CIE Lab colour of the fruit skin (highlights and deep shadow
+     excluded): the Lab hue angle h_ab = atan2(b*, a*) falls from about 110 deg (green) to
+     about 35 deg (red); it is mapped linearly to a 0..1 score and then to the four stages
+     green < 0.25 <= turning < 0.5 <= pink < 0.7 <= red.
+"""
+import math
+
+import cv2
+import numpy as np
+
+STAGE_GREEN, STAGE_TURNING, STAGE_PINK, STAGE_RED = 0, 1, 2, 3
+STAGE_NAMES = ('green', 'turning', 'pink', 'red')
+#: score thresholds between consecutive stages
+STAGE_THRESHOLDS = (0.25, 0.5, 0.7)
+
+#: default parameters (ROS params of the same names override them; see config/detection.yaml)
+DEFAULTS = {
+    'scale': 0.5,               # processing scale of the input image
+    'min_radius_px': 10.0,      # smallest fruit radius [px, full resolution]
+    'max_radius_px': 200.0,     # largest fruit radius [px, full resolution]
+    'hue_max': 42,              # fruit hue band: OpenCV hue (0..180) <= hue_max or >= hue_wrap
+    'hue_wrap': 165,
+    'sat_min': 80,              # HSV saturation floor of fruit skin (0..255)
+    'val_min': 45,              # HSV value floor (0..255)
+    'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
+    'min_fill_green': 0.6,      # same for green-coloured fruit (stricter: leaves are green)
+    'min_inside': 0.85,         # fraction of the part's pixels inside its fitted circle
+    'peak_separation': 0.75,    # NMS: a peak closer than this x the stronger radius is merged
+    'hue_angle_green': 110.0,   # Lab hue angle [deg] of score 0 (mature green)
+    'hue_angle_red': 35.0,      # Lab hue angle [deg] of score 1 (fully red)
+}
+
+
+def stage_of(score):
+    """Ripeness stage (STAGE_*) of a 0..1 ripeness score."""
+    for stage, threshold in enumerate(STAGE_THRESHOLDS):
+        if score < threshold:
+            return stage
+    return STAGE_RED
+
+
+class Detection(object):
+    """One detected fruit, in full-resolution pixel coordinates of the input image."""
+
+    __slots__ = ('u', 'v', 'radius_px', 'score', 'stage', 'fill', 'area_px', 'mask',
+                 'mask_origin', 'mask_scale', 'hue_angle')
+
+    def __init__(self, u, v, radius_px, score, mask=None, mask_origin=(0, 0), mask_scale=1.0,
+                 fill=1.0, area_px=0.0, hue_angle=float('nan')):
+        self.u = float(u)
+        self.v = float(v)
+        self.radius_px = float(radius_px)
+        self.score = float(score)
+        self.stage = stage_of(self.score)
+        self.mask = mask                  # bool crop of the fruit part at mask_scale
+        self.mask_origin = mask_origin    # (x, y) of the crop in mask_scale pixels
+        self.mask_scale = mask_scale
+        self.fill = float(fill)
+        self.area_px = float(area_px)
+        self.hue_angle = float(hue_angle)
+
+    def box(self, width=None, height=None):
+        """(x, y, w, h) integer box around the fitted circle, clipped to the image if given."""
+        x0 = int(math.floor(self.u - self.radius_px))
+        y0 = int(math.floor(self.v - self.radius_px))
+        x1 = int(math.ceil(self.u + self.radius_px))
+        y1 = int(math.ceil(self.v + self.radius_px))
+        if width is not None:
+            x0, x1 = max(x0, 0), min(x1, width)
+        if height is not None:
+            y0, y1 = max(y0, 0), min(y1, height)
+        return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
+
+    def contains(self, u, v):
+        """Vectorised: is full-resolution pixel (u, v) on this fruit's visible part?"""
+        u = np.asarray(u, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        inside = (u - self.u) ** 2 + (v - self.v) ** 2 <= self.radius_px ** 2
+        if self.mask is None:
+            return inside
+        mx = np.floor(u * self.mask_scale).astype(np.int64) - self.mask_origin[0]
+        my = np.floor(v * self.mask_scale).astype(np.int64) - self.mask_origin[1]
+        h, w = self.mask.shape
+        ok = inside & (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
+        out = np.zeros(ok.shape, dtype=bool)
+        out[ok] = self.mask[my[ok], mx[ok]]
+        return out
+
+    def __repr__(self):
+        return 'Detection(u=%.1f, v=%.1f, r=%.1f, score=%.2f, %s)' % (
+            self.u, self.v, self.radius_px, self.score, STAGE_NAMES[self.stage])
+
+
+def fit_circle(xs, ys):
+    """Algebraic least-squares circle (Kasa). Returns (cx, cy, r) or None."""
+    if len(xs) < 5:
+        return None
+    a = np.column_stack([xs, ys, np.ones(len(xs))])
+    b = -(xs * xs + ys * ys)
+    try:
+        sol, _, rank, _ = np.linalg.lstsq(a, b, rcond=None)
+    except np.linalg.LinAlgError:
+        return None
+    if rank < 3:
+        return None
+    cx, cy = -sol[0] / 2.0, -sol[1] / 2.0
+    r2 = cx * cx + cy * cy - sol[2]
+    if r2 <= 0:
+        return None
+    return cx, cy, math.sqrt(r2)
+
+
+def robust_fit_circle(xs, ys, iterations=2, keep=0.8):
+    """Kasa fit, then refits on the best `keep` fraction of points by radial residual."""
+    circle = fit_circle(xs, ys)
+    for _ in range(iterations):
+        if circle is None:
+            return None
+        res = np.abs(np.hypot(xs - circle[0], ys - circle[1]) - circle[2])
+        n = max(int(len(xs) * keep), 5)
+        if n >= len(xs):
+            break
+        idx = np.argpartition(res, n - 1)[:n]
+        xs, ys = xs[idx], ys[idx]
+        circle = fit_circle(xs, ys)
+    return circle
+
+
+class TomatoDetector(object):
+    """Finds tomatoes in BGR images; parameters as in DEFAULTS."""
+
+    def __init__(self, **params):
+        unknown = set(params) - set(DEFAULTS)
+        if unknown:
+            raise ValueError('unknown detector parameters: %s' % sorted(unknown))
+        self.params = dict(DEFAULTS)
+        self.params.update(params)
+
+    def update(self, **params):
+        """Change parameters at run time (dynamic_reconfigure)."""
+        for key, value in params.items():
+            if key in DEFAULTS:
+                self.params[key] = type(DEFAULTS[key])(value)
+
+    # -- colour -------------------------------------------------------------------------------
+    def colour_mask(self, hsv):
+        p = self.params
+        h, s, v = cv2.split(hsv)
+        hue_ok = cv2.bitwise_or(cv2.inRange(h, 0, int(p['hue_max'])),
+                                cv2.inRange(h, int(p['hue_wrap']), 180))
+        sv_ok = cv2.bitwise_and(cv2.inRange(s, int(p['sat_min']), 255),
+                                cv2.inRange(v, int(p['val_min']), 255))
+        return cv2.bitwise_and(hue_ok, sv_ok)
+
+    def score_of(self, bgr_pixels):
+        """(score, Lab hue angle) from an Nx3 uint8 BGR array of skin pixels."""
+        if len(bgr_pixels) == 0:
+            return 0.0, float('nan')
+        lab = cv2.cvtColor(bgr_pixels.reshape(-1, 1, 3), cv2.COLOR_BGR2LAB).reshape(-1, 3)
+        a = float(lab[:, 1].mean()) - 128.0
+        b = float(lab[:, 2].mean()) - 128.0
+        angle = math.degrees(math.atan2(b, a))
+        if angle < -90.0:          # purple-red wraps below zero: treat as fully red
+            angle += 360.0
+        p = self.params
+        score = (p['hue_angle_green'] - angle) / (p['hue_angle_green'] - p['hue_angle_red'])
+        return min(max(score, 0.0), 1.0), angle
+
+    # -- main ---------------------------------------------------------------------------------
+    def detect(self, bgr):
+        """Detect tomatoes in a BGR uint8 image. Returns a list of Detection."""
+        p = self.params
+        scale = float(p['scale'])
+        if scale != 1.0:
+            small = cv2.resize(bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
+        else:
+            small = bgr
+        hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
+        mask = self.colour_mask(hsv)
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
+        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
+        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
+        r_min = p['min_radius_px'] * scale
+        r_max = p['max_radius_px'] * scale
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        height, width = mask.shape
+        detections = []
+        for label in range(1, count):
+            x, y, w, h, area = stats[label]
+            if area < math.pi * r_min * r_min * 0.3 or max(w, h) < 1.5 * r_min:
+                continue
+            x0, y0 = max(x - 1, 0), max(y - 1, 0)
+            x1, y1 = min(x + w + 1, width), min(y + h + 1, height)
+            comp = _fill_holes((labels[y0:y1, x0:x1] == label).astype(np.uint8))
+            detections.extend(self._split_component(comp, (x0, y0), small, hsv, r_min, r_max,
+                                                    scale, (width, height)))
+        return detections
+
+    def _peaks(self, dist, r_min):
+        """Non-maximum-suppressed distance-transform maxima: list of (x, y, r)."""
+        dil = cv2.dilate(dist, cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5)))
+        ys, xs = np.nonzero((dist >= dil) & (dist >= max(r_min * 0.6, 1.5)))
+        if len(xs) == 0:
+            return []
+        values = dist[ys, xs]
+        order = np.argsort(-values)
+        sep = self.params['peak_separation']
+        peaks = []
+        for i in order:
+            px, py, pr = float(xs[i]), float(ys[i]), float(values[i])
+            if all(math.hypot(px - qx, py - qy) > sep * max(qr, pr) + 1.0
+                   for qx, qy, qr in peaks):
+                peaks.append((px, py, pr))
+        return peaks
+
+    def _split_component(self, comp, origin, small, hsv, r_min, r_max, scale, size):
+        p = self.params
+        dist = cv2.distanceTransform(comp, cv2.DIST_L2, 5)
+        peaks = self._peaks(dist, r_min)
+        if not peaks:
+            return []
+        ys, xs = np.nonzero(comp)
+        if len(peaks) == 1:
+            owner = np.zeros(len(xs), dtype=np.int64)
+        else:
+            c = np.array(peaks)
+            power = ((xs[:, None] - c[None, :, 0]) ** 2 + (ys[:, None] - c[None, :, 1]) ** 2
+                     - c[None, :, 2] ** 2)
+            owner = np.argmin(power, axis=1)
+        parts = np.full(comp.shape, -1, dtype=np.int32)
+        parts[ys, xs] = owner
+        # outer boundary of the whole component (pixels with a background 4-neighbour)
+        eroded = cv2.erode(comp, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3)),
+                           borderType=cv2.BORDER_CONSTANT, borderValue=0)
+        outer = (comp > 0) & (eroded == 0)
+        ox, oy = origin
+        width, height = size
+        # boundary pixels on the image border are not fruit edges
+        gy, gx = np.nonzero(outer)
+        on_border = (gx + ox <= 0) | (gy + oy <= 0) | (gx + ox >= width - 1) | \
+            (gy + oy >= height - 1)
+        outer[gy[on_border], gx[on_border]] = False
+        results = []
+        for k, (px, py, pr) in enumerate(peaks):
+            part = (parts == k)
+            area = int(part.sum())
+            if area < math.pi * r_min * r_min * 0.3:
+                continue
+            circle = self._fit_part(part, outer, pr)
+            if circle is None:
+                continue
+            cx, cy, r = circle
+            if r < r_min or r > r_max:
+                continue
+            pys, pxs = np.nonzero(part)
+            inside = float(np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2))
+            fill = area / (math.pi * r * r)
+            # skin pixels for colour: inside 0.85 r, not highlight, not deep shadow
+            skin = ((pxs - cx) ** 2 + (pys - cy) ** 2 <= (0.85 * r) ** 2)
+            sy, sx = pys[skin] + oy, pxs[skin] + ox
+            hsv_px = hsv[sy, sx]
+            good = (hsv_px[:, 2] > 50) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200))
+            score, angle = self.score_of(small[sy[good], sx[good]])
+            min_fill = p['min_fill'] if score >= STAGE_THRESHOLDS[0] else p['min_fill_green']
+            if inside < p['min_inside'] or fill < min_fill:
+                continue
+            x0 = max(int(math.floor(cx - r)) - 1, 0)
+            y0 = max(int(math.floor(cy - r)) - 1, 0)
+            crop = part[y0:int(math.ceil(cy + r)) + 2, x0:int(math.ceil(cx + r)) + 2]
+            results.append(Detection(
+                (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, r / scale, score,
+                mask=crop.copy(), mask_origin=(x0 + ox, y0 + oy), mask_scale=scale,
+                fill=fill, area_px=area / (scale * scale), hue_angle=angle))
+        return results
+
+    @staticmethod
+    def _fit_part(part, outer, peak_r):
+        """Circle through the part's outer-boundary pixels that lie on its convex hull."""
+        edge = part & outer
+        ys, xs = np.nonzero(edge)
+        fallback = None
+        pys, pxs = np.nonzero(part)
+        if len(pxs):
+            mx, my = float(pxs.mean()), float(pys.mean())
+            fallback = (mx, my, max(peak_r, math.sqrt(len(pxs) / math.pi)))
+        if len(xs) < 8:
+            return fallback
+        hull = cv2.convexHull(np.column_stack([pxs, pys]).astype(np.int32))
+        if hull is None or len(hull) < 3:
+            return fallback
+        on_hull = _hull_distance(hull, xs, ys) <= 1.5
+        if on_hull.sum() >= 8:
+            xs, ys = xs[on_hull], ys[on_hull]
+        circle = robust_fit_circle(xs.astype(np.float64), ys.astype(np.float64))
+        if circle is None:
+            return fallback
+        cx, cy, r = circle
+        # the distance-transform peak must lie well inside the fitted circle, and the radius
+        # must be consistent with the inscribed radius
+        if r < 0.8 * peak_r or r > 3.0 * peak_r + 2.0:
+            return fallback
+        if np.hypot(cx - pxs.mean(), cy - pys.mean()) > r:
+            return fallback
+        return circle
+
+
+def _fill_holes(comp):
+    """Fill the holes of a 0/1 uint8 region (highlights, dark spots on the skin)."""
+    padded = cv2.copyMakeBorder(comp, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    flood = padded.copy()
+    ffmask = np.zeros((padded.shape[0] + 2, padded.shape[1] + 2), np.uint8)
+    cv2.floodFill(flood, ffmask, (0, 0), 1)
+    holes = flood[1:-1, 1:-1] == 0
+    out = comp.copy()
+    out[holes] = 1
+    return out
+
+
+def _hull_distance(hull, xs, ys):
+    """Distance of points to a convex polygon's boundary (points assumed inside)."""
+    pts = hull.reshape(-1, 2).astype(np.float64)
+    a = pts
+    b = np.roll(pts, -1, axis=0)
+    ab = b - a
+    len2 = np.maximum((ab * ab).sum(1), 1e-9)
+    px = xs.astype(np.float64)[:, None]
+    py = ys.astype(np.float64)[:, None]
+    t = np.clip(((px - a[None, :, 0]) * ab[None, :, 0] + (py - a[None, :, 1]) * ab[None, :, 1])
+                / len2[None, :], 0.0, 1.0)
+    dx = px - (a[None, :, 0] + t * ab[None, :, 0])
+    dy = py - (a[None, :, 1] + t * ab[None, :, 1])
+    return np.sqrt(dx * dx + dy * dy).min(axis=1)

@@ -1,0 +1,202 @@
+"""3D picking point of a detected tomato from an organized stereo point cloud, rospy-free.
+
+The cloud is what stereo_image_proc publishes on stereo/points2: organized on the LEFT
+rectified image grid, points in the LEFT optical frame, NaN where the disparity is invalid.
+Detections live in the RIGHT rectified image, so every cloud point is mapped into the right
+image through the right camera's projection matrix P (Tx = -fx * baseline) and kept when it
+falls on the fruit's visible part.
+
+The fruit is a sphere of unknown radius R whose silhouette in the right image is the fitted
+circle. That circle fixes the viewing ray to the sphere centre and the angular radius alpha
+(sin alpha = R / D, D the centre distance). Each surface point p on the fruit gives its own
+centre-distance estimate: its depth t along the centre ray pushed back by the sphere's
+thickness at its lateral offset rho, D_i = t + sqrt(R^2 - rho^2) (for the central point,
+exactly "the surface point pushed back by the radius along the viewing ray"). The median of
+the D_i over valid points (holes and outliers do not matter), iterated twice with R = D sin
+alpha, gives the centre; only points with rho < EDGE_FRACTION * R are used, because block
+matching smears the disparity of the fruit rim onto the background and back.
+"""
+import math
+
+import numpy as np
+
+#: points farther from the centre axis than this fraction of R are not used
+EDGE_FRACTION = 0.8
+#: fewest valid cloud points on a fruit for a 3D point
+MIN_POINTS = 12
+
+
+class FruitLocation(object):
+    """Fruit centre and radius, in the cloud (left optical) frame."""
+
+    __slots__ = ('centre', 'radius', 'points', 'surface')
+
+    def __init__(self, centre, radius, points, surface):
+        self.centre = np.asarray(centre, dtype=np.float64)
+        self.radius = float(radius)
+        self.points = int(points)          # valid cloud points used
+        self.surface = np.asarray(surface, dtype=np.float64)   # median surface point
+
+    def __repr__(self):
+        return 'FruitLocation(centre=%s, radius=%.4f, points=%d)' % (
+            np.round(self.centre, 4).tolist(), self.radius, self.points)
+
+
+def projection_params(p):
+    """(fx, fy, cx, cy, baseline) from a 3x4 (or 12-list) right-camera projection matrix."""
+    p = np.asarray(p, dtype=np.float64).reshape(3, 4)
+    fx, fy, cx, cy = p[0, 0], p[1, 1], p[0, 2], p[1, 2]
+    if fx <= 0 or fy <= 0:
+        raise ValueError('projection matrix has no focal length')
+    baseline = -p[0, 3] / fx
+    return fx, fy, cx, cy, baseline
+
+
+def sphere_ray(u, v, radius_px, fx, fy, cx, cy):
+    """Unit direction to a sphere's centre and its angular radius from its image circle.
+
+    The silhouette of a sphere is the section of a circular cone around the centre ray, so its
+    image is an ellipse whose centre lies outward of the projected sphere centre. Along the
+    radial image direction the two silhouette edges are at angles theta_c +- alpha from the
+    optical axis; halving their sum and difference recovers theta_c and alpha.
+    """
+    x = (u - cx) / fx
+    y = (v - cy) / fy
+    rho = math.hypot(x, y)
+    r = radius_px / math.sqrt(fx * fy)
+    if rho < 1e-9:
+        alpha = math.atan(r)
+        return np.array([0.0, 0.0, 1.0]), alpha
+    t1 = math.atan(rho + r)
+    t2 = math.atan(rho - r)
+    theta = 0.5 * (t1 + t2)
+    alpha = 0.5 * (t1 - t2)
+    tan_t = math.tan(theta)
+    d = np.array([x / rho * tan_t, y / rho * tan_t, 1.0])
+    return d / np.linalg.norm(d), alpha
+
+
+def cloud_from_disparity(disparity, fx, fy, cx, cy, baseline, cx_right=None):
+    """Organized HxWx3 float32 cloud (left optical frame, NaN invalid) from a float disparity.
+
+    Same geometry as stereo_image_proc / image_geometry: Z = fx * B / (d - (cx_l - cx_r)).
+    Disparities <= 0 or non-finite are invalid (StereoBM marks those with minDisparity - 1).
+    """
+    if cx_right is None:
+        cx_right = cx
+    d = disparity.astype(np.float32) - np.float32(cx - cx_right)
+    h, w = d.shape
+    valid = np.isfinite(d) & (d > 0)
+    z = np.full((h, w), np.nan, np.float32)
+    z[valid] = np.float32(fx * baseline) / d[valid]
+    us = (np.arange(w, dtype=np.float32) - np.float32(cx)) / np.float32(fx)
+    vs = (np.arange(h, dtype=np.float32) - np.float32(cy)) / np.float32(fy)
+    cloud = np.empty((h, w, 3), np.float32)
+    cloud[..., 0] = us[None, :] * z
+    cloud[..., 1] = vs[:, None] * z
+    cloud[..., 2] = z
+    return cloud
+
+
+def points_on_fruit(cloud, detection, right_p):
+    """Valid cloud points (Nx3, left optical frame) that project onto the detection's part."""
+    fx, fy, cx, cy, _ = projection_params(right_p)
+    p = np.asarray(right_p, dtype=np.float64).reshape(3, 4)
+    h, w = cloud.shape[:2]
+    x0, y0, bw, bh = detection.box(w, h)
+    if bw <= 0 or bh <= 0:
+        return np.zeros((0, 3))
+    # rectified rows coincide; in the left image the fruit lies right of its right-image box
+    block = cloud[y0:y0 + bh, x0:, :].reshape(-1, 3)
+    z = block[:, 2]
+    ok = np.isfinite(z) & (z > 0)
+    pts = block[ok].astype(np.float64)
+    if len(pts) == 0:
+        return pts
+    u = (p[0, 0] * pts[:, 0] + p[0, 1] * pts[:, 1] + p[0, 2] * pts[:, 2] + p[0, 3]) / pts[:, 2]
+    v = (p[1, 0] * pts[:, 0] + p[1, 1] * pts[:, 1] + p[1, 2] * pts[:, 2] + p[1, 3]) / pts[:, 2]
+    return pts[detection.contains(u, v)]
+
+
+def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3):
+    """FruitLocation of a detection (cloud frame), or None when too few valid points."""
+    fx, fy, cx, cy, baseline = projection_params(right_p)
+    pts = points_on_fruit(cloud, detection, right_p)
+    if len(pts) < min_points:
+        return None
+    offset = np.array([baseline, 0.0, 0.0])     # right camera centre in the left frame
+    pr = pts - offset
+    axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
+    t = pr.dot(axis)
+    lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
+    sin_a = math.sin(alpha)
+    # start: the median surface depth pushed back by the radius it implies
+    t_med = float(np.median(t))
+    dist = t_med / max(1.0 - sin_a, 1e-6) if sin_a < 1.0 else t_med
+    radius = dist * sin_a
+    for _ in range(iterations):
+        near = lateral < EDGE_FRACTION * radius
+        if near.sum() < min_points:
+            near = lateral <= np.partition(lateral, min_points - 1)[min_points - 1]
+        est = t[near] + np.sqrt(np.maximum(radius * radius - lateral[near] ** 2, 0.0))
+        dist = float(np.median(est))
+        radius = dist * sin_a
+    surface = np.median(pr[lateral < EDGE_FRACTION * radius], axis=0) \
+        if (lateral < EDGE_FRACTION * radius).any() else np.median(pr, axis=0)
+    return FruitLocation(dist * axis + offset, radius, len(pts), surface + offset)
+
+
+def cloud_array(data, height, width, point_step, row_step, offsets, big_endian=False):
+    """Organized HxWx3 float32 xyz array from PointCloud2 fields (x, y, z float32 offsets)."""
+    endian = '>' if big_endian else '<'
+    dtype = np.dtype({'names': ['x', 'y', 'z'], 'formats': [endian + 'f4'] * 3,
+                      'offsets': list(offsets), 'itemsize': point_step})
+    buf = np.frombuffer(data, dtype=np.uint8)
+    if row_step != width * point_step:
+        buf = buf.reshape(height, row_step)[:, :width * point_step]
+        buf = np.ascontiguousarray(buf).reshape(-1)
+    recs = np.frombuffer(buf, dtype=dtype, count=height * width)
+    out = np.empty((height, width, 3), np.float32)
+    out[..., 0] = recs['x'].reshape(height, width)
+    out[..., 1] = recs['y'].reshape(height, width)
+    out[..., 2] = recs['z'].reshape(height, width)
+    return out
+
+
+#: stereo_image_proc dynamic_reconfigure parameter -> cv2.StereoBM setter, for the offline cloud
+BM_SETTERS = (
+    ('prefilter_size', 'setPreFilterSize'),
+    ('prefilter_cap', 'setPreFilterCap'),
+    ('correlation_window_size', 'setBlockSize'),
+    ('min_disparity', 'setMinDisparity'),
+    ('disparity_range', 'setNumDisparities'),
+    ('uniqueness_ratio', 'setUniquenessRatio'),
+    ('texture_threshold', 'setTextureThreshold'),
+    ('speckle_size', 'setSpeckleWindowSize'),
+    ('speckle_range', 'setSpeckleRange'),
+    ('disp12MaxDiff', 'setDisp12MaxDiff'),
+)
+
+
+def stereo_bm_from_params(params):
+    """cv2.StereoBM configured like stereo_image_proc with the given parameter dict."""
+    import cv2
+    if int(params.get('stereo_algorithm', 0)) != 0:
+        raise ValueError('only block matching (stereo_algorithm 0) is reproduced offline')
+    bm = cv2.StereoBM_create()
+    for key, setter in BM_SETTERS:
+        if key in params:
+            getattr(bm, setter)(int(params[key]))
+    return bm
+
+
+def offline_cloud(left_bgr, right_bgr, params, fx, fy, cx, cy, baseline):
+    """stereo_image_proc's points2 recomputed offline: mono conversion, StereoBM, reprojection."""
+    import cv2
+    bm = stereo_bm_from_params(params)
+    left = cv2.cvtColor(left_bgr, cv2.COLOR_BGR2GRAY)
+    right = cv2.cvtColor(right_bgr, cv2.COLOR_BGR2GRAY)
+    raw = bm.compute(left, right)
+    disp = raw.astype(np.float32) / 16.0
+    disp[raw < int(params.get('min_disparity', 0)) * 16] = np.nan
+    return cloud_from_disparity(disp, fx, fy, cx, cy, baseline)

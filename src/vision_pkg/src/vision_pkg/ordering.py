@@ -1,0 +1,29 @@
+"""Picking order of the pickable tomatoes (section 3.5.1.2): bottom to top, then left to right.
+
+Works in image coordinates of the right rectified image (u to the right, v downwards), so
+"bottom" is the largest v. Fruit whose v differ by at most the row tolerance from the lowest
+fruit of the current row belong to that row; a row is picked left to right (increasing u).
+Anchoring each row at its lowest fruit keeps a chain of slightly staggered fruit from growing
+one endless row.
+"""
+
+
+def picking_order(points, row_tolerance):
+    """Indices of `points` [(u, v), ...] in picking order.
+
+    row_tolerance: largest v difference [px] to the lowest fruit of a row for the same row.
+    Ties are broken by the original index, so the order is deterministic.
+    """
+    if row_tolerance < 0:
+        raise ValueError('row_tolerance must be >= 0')
+    by_height = sorted(range(len(points)), key=lambda i: (-points[i][1], points[i][0], i))
+    rows = []
+    for i in by_height:
+        if rows and rows[-1][0] - points[i][1] <= row_tolerance:
+            rows[-1][1].append(i)
+        else:
+            rows.append((points[i][1], [i]))
+    order = []
+    for _, members in rows:
+        order.extend(sorted(members, key=lambda i: (points[i][0], i)))
+    return order

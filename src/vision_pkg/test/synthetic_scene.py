@@ -1,0 +1,158 @@
+"""Tiny ray-cast stereo scene for the vision tests: shaded tomatoes, leaves, textured backdrop.
+
+Independent of harvest_sim so the unit tests do not depend on another package's renderer.
+Coordinates: the RIGHT optical frame (x right, y down, z forward); the left eye sits at
+x = -baseline (a rectified pair, as stereo_image_proc produces).
+"""
+import numpy as np
+
+WIDTH, HEIGHT = 1024, 768
+FOCAL = (WIDTH / 2.0) / np.tan(np.radians(66.0) / 2.0)
+CX, CY = (WIDTH - 1) / 2.0, (HEIGHT - 1) / 2.0
+BASELINE = 0.12
+
+# BGR anchors of the ripeness colour ramp (0 green .. 1 red)
+_RAMP = [(0.0, (50, 180, 140)), (0.35, (40, 170, 200)), (0.6, (80, 110, 235)),
+         (1.0, (40, 40, 200))]
+
+
+def ripeness_colour(r):
+    """BGR base colour of a tomato of ripeness r in [0, 1]."""
+    for (r0, c0), (r1, c1) in zip(_RAMP[:-1], _RAMP[1:]):
+        if r <= r1:
+            w = (r - r0) / (r1 - r0)
+            return np.array(c0) * (1.0 - w) + np.array(c1) * w
+    return np.array(_RAMP[-1][1], dtype=float)
+
+
+class Fruit(object):
+    def __init__(self, x, y, z, radius, ripeness):
+        self.centre = np.array([x, y, z], dtype=float)
+        self.radius = float(radius)
+        self.ripeness = float(ripeness)
+
+
+class Leaf(object):
+    """A flat elliptical leaf facing the camera at depth z."""
+
+    def __init__(self, x, y, z, ax, ay, angle=0.0):
+        self.centre = np.array([x, y, z], dtype=float)
+        self.ax, self.ay, self.angle = ax, ay, angle
+
+
+def project(point, eye='right'):
+    x = point[0] + (BASELINE if eye == 'left' else 0.0)
+    return np.array([FOCAL * x / point[2] + CX, FOCAL * point[1] / point[2] + CY])
+
+
+def gt_box(fruit, eye='right'):
+    """Pixel box (x0, y0, x1, y1) of the projected sphere (sampled silhouette)."""
+    c = fruit.centre.copy()
+    if eye == 'left':
+        c[0] += BASELINE
+    a = np.linspace(0, 2 * np.pi, 64, endpoint=False)
+    # silhouette: points on the sphere perpendicular to the viewing ray
+    d = c / np.linalg.norm(c)
+    e1 = np.cross(d, [0, 1, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    dist = np.linalg.norm(c)
+    r = fruit.radius
+    off = dist - r * r / dist
+    rad = r * np.sqrt(1 - (r / dist) ** 2)
+    pts = d * off + rad * (np.outer(np.cos(a), e1) + np.outer(np.sin(a), e2))
+    u = FOCAL * pts[:, 0] / pts[:, 2] + CX
+    v = FOCAL * pts[:, 1] / pts[:, 2] + CY
+    return u.min(), v.min(), u.max(), v.max()
+
+
+def _texture(shape, rng, scale):
+    noise = rng.standard_normal((shape[0] // scale + 2, shape[1] // scale + 2)).astype(np.float32)
+    import cv2
+    big = cv2.resize(noise, (shape[1], shape[0]), interpolation=cv2.INTER_CUBIC)
+    return big
+
+
+def render(fruits, leaves=(), eye='right', seed=0, width=WIDTH, height=HEIGHT, focal=None,
+           backdrop_depth=1.2, light=1.0):
+    """Render one eye. Returns (bgr uint8 image, depth float32 [m], fruit id map int16)."""
+    import cv2
+    f = FOCAL * width / WIDTH if focal is None else focal
+    cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
+    shift = BASELINE if eye == 'left' else 0.0
+    rng = np.random.RandomState(seed)
+    vv, uu = np.mgrid[0:height, 0:width].astype(np.float32)
+    dx = (uu - cx) / f
+    dy = (vv - cy) / f
+    # backdrop: textured leaves far away, texture fixed in the world (so stereo can match)
+    depth = np.full((height, width), backdrop_depth, np.float32)
+    wx = dx * backdrop_depth + shift
+    wy = dy * backdrop_depth
+    tex_rng = np.random.RandomState(1234 + seed)
+    grid = tex_rng.standard_normal((160, 200)).astype(np.float32)
+    gx = np.clip((wx + 1.0) / 2.0 * 199, 0, 199).astype(np.float32)
+    gy = np.clip((wy + 0.8) / 1.6 * 159, 0, 159).astype(np.float32)
+    t = cv2.remap(grid, gx, gy, cv2.INTER_LINEAR)
+    img = np.zeros((height, width, 3), np.float32)
+    img[..., 0] = 40 + 12 * t
+    img[..., 1] = 95 + 30 * t
+    img[..., 2] = 45 + 12 * t
+    ids = np.full((height, width), -1, np.int16)
+    light_dir = np.array([0.3, 0.45, 0.85])
+    light_dir /= np.linalg.norm(light_dir)
+    for i, fr in enumerate(fruits):
+        c = fr.centre + np.array([shift, 0.0, 0.0])
+        x0, y0, x1, y1 = gt_box(Fruit(c[0], c[1], c[2], fr.radius, 0))
+        x0, y0 = max(int(x0) - 2, 0), max(int(y0) - 2, 0)
+        x1, y1 = min(int(x1) + 3, width), min(int(y1) + 3, height)
+        if x0 >= x1 or y0 >= y1:
+            continue
+        sx, sy = dx[y0:y1, x0:x1], dy[y0:y1, x0:x1]
+        dd = sx * sx + sy * sy + 1.0
+        b = sx * c[0] + sy * c[1] + c[2]
+        disc = b * b - dd * (c.dot(c) - fr.radius ** 2)
+        hit = disc > 0
+        tt = (b - np.sqrt(np.maximum(disc, 0))) / dd
+        z = tt
+        sub_depth = depth[y0:y1, x0:x1]
+        hit &= z < sub_depth
+        if not hit.any():
+            continue
+        px, py, pz = sx * tt - c[0], sy * tt - c[1], tt - c[2]
+        n = np.stack([px, py, pz], -1) / fr.radius
+        lam = np.clip(-(n @ light_dir), 0, 1)
+        view = -np.stack([sx, sy, np.ones_like(sx)], -1) / np.sqrt(dd)[..., None]
+        half = view - light_dir
+        half /= np.linalg.norm(half, axis=-1, keepdims=True)
+        spec = np.clip((n * half).sum(-1), 0, 1) ** 40
+        base = ripeness_colour(fr.ripeness)
+        # skin texture fixed on the fruit (the same in both eyes, so stereo can match it)
+        skin = 1.0 + 0.08 * np.sin(37.0 * n[..., 0] + 3.0 * i) * np.sin(41.0 * n[..., 1]) \
+            * np.cos(23.0 * n[..., 2])
+        col = base[None, None, :] * (0.35 + 0.65 * lam)[..., None] * skin[..., None] * light
+        col += 200.0 * spec[..., None]
+        sub = img[y0:y1, x0:x1]
+        sub[hit] = col[hit]
+        sub_depth[hit] = z[hit]
+        ids[y0:y1, x0:x1][hit] = i
+    for leaf in leaves:
+        c = leaf.centre + np.array([shift, 0.0, 0.0])
+        lx = dx * c[2] - c[0]
+        ly = dy * c[2] - c[1]
+        ca, sa = np.cos(leaf.angle), np.sin(leaf.angle)
+        ex = (ca * lx + sa * ly) / leaf.ax
+        ey = (-sa * lx + ca * ly) / leaf.ay
+        hit = (ex * ex + ey * ey <= 1.0) & (c[2] < depth)
+        shade = 0.8 + 0.2 * ex
+        img[hit, 0] = 30 * shade[hit]
+        img[hit, 1] = 120 * shade[hit]
+        img[hit, 2] = 40 * shade[hit]
+        depth[hit] = c[2]
+        ids[hit] = -1
+    img += rng.standard_normal(img.shape).astype(np.float32) * 2.0
+    return np.clip(img, 0, 255).astype(np.uint8), depth, ids
+
+
+def camera_k(width=WIDTH, height=HEIGHT):
+    f = FOCAL * width / WIDTH
+    return np.array([[f, 0, (width - 1) / 2.0], [0, f, (height - 1) / 2.0], [0, 0, 1.0]])
