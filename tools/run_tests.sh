@@ -31,7 +31,7 @@ if [ "${HARVEST_ONLY_LINT:-0}" = "1" ]; then
 fi
 
 echo "=== pytest (pure logic, no ROS master)"
-python -m pytest -q -p no:cacheprovider --import-mode=importlib --junitxml="$RESULTS/pytest.xml" \
+python -m pytest -q -p no:cacheprovider --junitxml="$RESULTS/pytest.xml" \
   $(ls -d src/*/test 2>/dev/null) --ignore-glob='*/rostest/*' -o junit_family=xunit1
 rc=$?
 if [ $rc -ne 0 ] && [ $rc -ne 5 ]; then FAILED_STEPS+=(pytest); fi
