@@ -1,0 +1,165 @@
+"""ROS glue of the simulated cameras (node ``sim_camera``; one instance per camera head).
+
+~kind "stereo": the Bumblebee2-like head. Publishes bumblebee2/left/image_raw,
+bumblebee2/right/image_raw (bgr8) and bumblebee2/{left,right}/camera_info (plumb_bob, zero
+distortion, the right P has Tx = -fx * baseline) in frames stereo_left_optical /
+stereo_right_optical, all four with one stamp (stereo_image_proc's exact sync).
+~kind "hand": the eye-in-hand camera on the cutting hand: hand_camera/image_raw and
+hand_camera/camera_info in frame hand_camera_optical.
+
+Subscriptions: joint_states (remap to /sim/joint_states), fruits (remap to /sim/fruits).
+The image shows the scene at the latest joint state; a frame is rendered only when the camera
+pose or the fruit changed, otherwise the cached frame is republished with a new stamp. Nothing is
+rendered or published while nobody subscribes (~always_publish false).
+Parameters: ~scenario (required, name or path), ~kind (stereo|hand), ~rate (Hz of ROS time:
+stereo 2, hand 5), ~width, ~height, ~hfov_deg (defaults 1024x768/66 deg and 640x480/60 deg),
+~noise_sigma (2.0 DN), ~seed (default: the scenario's), ~robot_config, ~always_publish (false).
+"""
+
+import threading
+import time
+
+import numpy as np
+import rospy
+from sensor_msgs.msg import CameraInfo, Image, JointState
+
+from harvest_sim import camera_model, names, render
+from harvest_sim.msg import SimFruitArray
+from harvest_sim.world_node import default_robot_config, load_scenario_param
+from motion_pkg.kinematics import RobotGeometry
+
+KINDS = {
+    'stereo': dict(width=camera_model.STEREO_WIDTH, height=camera_model.STEREO_HEIGHT,
+                   hfov_deg=camera_model.STEREO_HFOV_DEG, rate=2.0),
+    'hand': dict(width=camera_model.HAND_WIDTH, height=camera_model.HAND_HEIGHT,
+                 hfov_deg=camera_model.HAND_HFOV_DEG, rate=5.0),
+}
+#: joints that move each camera (a change re-renders)
+POSE_JOINTS = {'stereo': ('cart_joint', 'waist_joint'),
+               'hand': ('cart_joint', 'waist_joint', 'left_lift_joint', 'left_boom_joint',
+                        'left_forearm_joint')}
+
+
+def camera_info(camera, frame_id, tx=0.0):
+    info = CameraInfo()
+    info.header.frame_id = frame_id
+    info.width, info.height = camera.width, camera.height
+    info.distortion_model = 'plumb_bob'
+    info.D = [0.0] * 5
+    info.K = camera.K.flatten().tolist()
+    info.R = np.eye(3).flatten().tolist()
+    info.P = camera.P(tx).flatten().tolist()
+    return info
+
+
+def image_msg(img, frame_id):
+    msg = Image()
+    msg.header.frame_id = frame_id
+    msg.height, msg.width = img.shape[:2]
+    msg.encoding = 'bgr8'
+    msg.is_bigendian = 0
+    msg.step = img.shape[1] * 3
+    msg.data = img.tobytes()
+    return msg
+
+
+class Eye(object):
+    """One image stream: camera model, frame, publishers, cached message."""
+
+    def __init__(self, name, camera, frame, image_topic, info_topic, tx=0.0):
+        self.name, self.camera, self.frame = name, camera, frame
+        self.info = camera_info(camera, frame, tx)
+        self.image_pub = rospy.Publisher(image_topic, Image, queue_size=1)
+        self.info_pub = rospy.Publisher(info_topic, CameraInfo, queue_size=1)
+        self.image = None
+        self.frames = 0
+
+    def wanted(self):
+        return self.image_pub.get_num_connections() > 0 or self.info_pub.get_num_connections() > 0
+
+
+class SimCameraNode(object):
+    def __init__(self):
+        self.scenario = load_scenario_param()
+        self.kind = rospy.get_param('~kind', 'stereo')
+        if self.kind not in KINDS:
+            msg = '~kind must be one of %s, got %r' % (', '.join(KINDS), self.kind)
+            rospy.logfatal(msg)
+            raise rospy.ROSInitException(msg)
+        d = KINDS[self.kind]
+        camera = camera_model.PinholeCamera.from_hfov(rospy.get_param('~width', d['width']),
+                                                      rospy.get_param('~height', d['height']),
+                                                      rospy.get_param('~hfov_deg', d['hfov_deg']))
+        self.geom = RobotGeometry.from_yaml(rospy.get_param('~robot_config', '') or
+                                            default_robot_config())
+        seed = rospy.get_param('~seed', self.scenario.seed)
+        self.renderer = render.Renderer(self.scenario, seed,
+                                        noise_sigma=rospy.get_param('~noise_sigma', 2.0))
+        self.always = rospy.get_param('~always_publish', False)
+        if self.kind == 'stereo':
+            self.eyes = [Eye('left', camera, 'stereo_left_optical', names.STEREO_LEFT_IMAGE,
+                             names.STEREO_LEFT_INFO),
+                         Eye('right', camera, 'stereo_right_optical', names.STEREO_RIGHT_IMAGE,
+                             names.STEREO_RIGHT_INFO, -camera.fx * self.geom.stereo_baseline)]
+        else:
+            self.eyes = [Eye('hand', camera, 'hand_camera_optical', names.HAND_IMAGE,
+                             names.HAND_INFO)]
+        self._lock = threading.Lock()
+        self._joints = {}
+        self._fruits = render.fruits_from_scenario(self.scenario)
+        self._fruit_key = None
+        self._rendered_key = None
+        rospy.Subscriber(names.JOINT_STATES, JointState, self._on_joints, queue_size=1)
+        rospy.Subscriber(names.FRUITS, SimFruitArray, self._on_fruits, queue_size=1)
+        rate = float(rospy.get_param('~rate', d['rate']))
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._on_timer)
+        rospy.loginfo('sim_camera: %s camera %dx%d, %.1f deg HFOV, %.1f Hz', self.kind,
+                      camera.width, camera.height, camera.hfov_deg(), rate)
+
+    def _on_joints(self, msg):
+        with self._lock:
+            self._joints.update(zip(msg.name, msg.position))
+
+    def _on_fruits(self, msg):
+        index = dict((f.id, i) for i, f in enumerate(self.scenario.fruits))
+        fruits = []
+        for m in msg.fruits:
+            i = index.get(m.id)
+            if i is None or m.state == m.COLLECTED:
+                continue          # collected fruit lie in the box, out of every view
+            p = (m.position.x, m.position.y, m.position.z)
+            cut = None if m.attached else np.array([m.cut_point.x, m.cut_point.y, m.cut_point.z])
+            fruits.append(render.RenderFruit(i, np.array(p), m.radius, m.ripeness,
+                                             self.scenario.fruits[i].pedicel_top, m.attached,
+                                             cut))
+        key = tuple((f.index, round(f.position[0], 4), round(f.position[1], 4),
+                     round(f.position[2], 4), f.attached) for f in fruits)
+        with self._lock:
+            self._fruits, self._fruit_key = fruits, key
+
+    def _on_timer(self, _event):
+        if not self.always and not any(e.wanted() for e in self.eyes):
+            return
+        with self._lock:
+            joints = dict(self._joints)
+            fruits, fkey = self._fruits, self._fruit_key
+        key = (tuple(round(joints.get(j, 0.0), 5) for j in POSE_JOINTS[self.kind]), fkey)
+        if key != self._rendered_key:
+            poses = self.geom.frame_transforms(joints)
+            for e in self.eyes:
+                start = time.perf_counter()
+                img = self.renderer.render(e.camera, poses[e.frame], fruits,
+                                           noise_key=(e.name, e.frames))
+                ms = (time.perf_counter() - start) * 1000.0
+                rospy.logdebug_throttle(10.0, 'sim_camera: %s frame rendered in %.0f ms'
+                                        % (e.name, ms))
+                e.frames += 1
+                e.image = image_msg(img, e.frame)
+            self._rendered_key = key
+        stamp = rospy.Time.now()
+        for e in self.eyes:
+            e.image.header.stamp = stamp
+            e.info.header.stamp = stamp
+            e.info_pub.publish(e.info)
+            e.image_pub.publish(e.image)
+

@@ -1,0 +1,27 @@
+"""Topic, service and parameter names of the simulator (relative; launch files wire them).
+
+Ground truth lives under the `sim` namespace (the world node runs in it); the cameras publish
+the names a real camera driver would use.
+"""
+
+#: world node (run in namespace `sim`)
+JOINT_STATES = 'joint_states'          # sensor_msgs/JointState from the simulated controller
+SUCTION_VALVE = 'suction_valve'        # std_msgs/Bool, latched, from the simulated controller
+SHEAR_CUT = 'shear_cut'                # std_msgs/Header at each shear close
+SUCTION_SEALED = 'suction_sealed'      # std_msgs/Bool, latched, world -> controller
+FRUITS = 'fruits'                      # harvest_sim/SimFruitArray, latched
+GET_SUMMARY = 'get_summary'            # harvest_sim/GetSimSummary
+
+#: cameras (root namespace)
+STEREO_LEFT_IMAGE = 'bumblebee2/left/image_raw'
+STEREO_LEFT_INFO = 'bumblebee2/left/camera_info'
+STEREO_RIGHT_IMAGE = 'bumblebee2/right/image_raw'
+STEREO_RIGHT_INFO = 'bumblebee2/right/camera_info'
+HAND_IMAGE = 'hand_camera/image_raw'
+HAND_INFO = 'hand_camera/camera_info'
+
+#: clock
+CLOCK = '/clock'
+
+#: global parameter: cart positions (m along map +y) of the picking points
+PICKING_POINTS_PARAM = '/track/picking_points'

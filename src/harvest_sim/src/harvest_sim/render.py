@@ -1,0 +1,519 @@
+"""Ray-cast renderer of the simulated greenhouse (numpy + OpenCV, no rospy).
+
+Geometry is exact pinhole geometry: every pixel (u, v) is the ray through its centre, and
+fruit (spheres), leaves (planar leaflets) and stems (capsules) are intersected with those rays
+inside their projected bounding boxes; a depth buffer resolves occlusion. The background is the
+canopy behind the row (plane x = track.backdrop_x), the opposite row (x = track.aisle_x), the
+floor (z = 0) and the roof (z = ROOF_Z), each a textured plane drawn with a homography, so every
+surface carries texture fixed in 3-D (block matching finds the same pattern in both eyes).
+
+Shading: Lambert + ambient + Blinn-Phong highlights with the scenario's light (intensity, colour,
+direction); fruit get a calyx (star of sepals round the peduncle), a fine surface texture, and
+ripen from the bottom up (green shoulders on turning fruit). Sensor noise (Gaussian, sigma
+`noise_sigma` DN) comes from a per-camera bank generated from the scenario seed, so a frame is a
+deterministic function of (seed, camera name, frame index, scene).
+
+Colour of a fruit by ripeness (albedo, RGB 0..1, interpolated; see RIPENESS_COLOURS):
+green (0) -> light green (0.2) -> turning yellow-orange (0.35) -> pink (0.55) -> red (0.7)
+-> deep red (1.0).
+"""
+
+import math
+from collections import namedtuple
+
+import cv2
+import numpy as np
+
+from harvest_sim import camera_model
+
+ROOF_Z = 3.2
+NEAR = 0.01
+#: (ripeness, RGB albedo)
+RIPENESS_COLOURS = ((0.0, (0.30, 0.55, 0.16)), (0.2, (0.45, 0.62, 0.18)),
+                    (0.35, (0.75, 0.62, 0.22)), (0.55, (0.93, 0.45, 0.36)),
+                    (0.7, (0.85, 0.19, 0.11)), (1.0, (0.70, 0.06, 0.04)))
+CALYX_RGB = (0.16, 0.36, 0.08)
+STEM_RGB = (0.33, 0.48, 0.20)
+PEDICEL_RADIUS = 0.0025
+TEX_RES = 0.002                  # m per texel of the plane textures
+CANOPY_TILE = (1.6, 3.4)         # m: width along the row, height (z from -0.2)
+LABEL_LEAF, LABEL_STEM = 1000, 2000
+
+RenderFruit = namedtuple('RenderFruit', 'index position radius ripeness pedicel_top attached '
+                                        'cut_point')
+RenderFruit.__doc__ = """A fruit as the renderer needs it (map frame).
+
+index: stable integer (texture and label, label = index + 1); attached: still on its pedicel
+(hanging or held); cut_point: where its pedicel was cut (None if attached)."""
+
+
+def fruit_albedo(ripeness):
+    """RGB albedo (0..1) of a fruit of a given ripeness."""
+    r = min(max(float(ripeness), 0.0), 1.0)
+    for (r0, c0), (r1, c1) in zip(RIPENESS_COLOURS[:-1], RIPENESS_COLOURS[1:]):
+        if r <= r1:
+            a = (r - r0) / (r1 - r0)
+            return tuple((1 - a) * x0 + a * x1 for x0, x1 in zip(c0, c1))
+    return RIPENESS_COLOURS[-1][1]
+
+
+def fruits_from_scenario(scenario):
+    """RenderFruit list of a scenario's fruit, all hanging at their scenario positions."""
+    return [RenderFruit(i, f.position, f.radius, f.ripeness, f.pedicel_top, True, None)
+            for i, f in enumerate(scenario.fruits)]
+
+
+def _bgr(rgb):
+    return np.array([rgb[2], rgb[1], rgb[0]], dtype=np.float32)
+
+
+def _noise_texture(rng, shape, blur_sigma):
+    n = rng.standard_normal(shape).astype(np.float32)
+    if blur_sigma > 0:             # blur with wrap-around so the texture tiles seamlessly
+        m = int(math.ceil(4 * blur_sigma))
+        n = cv2.GaussianBlur(np.pad(n, m, mode='wrap'), (0, 0), blur_sigma)[m:-m, m:-m]
+    return n / max(float(n.std()), 1e-6)
+
+
+def _wrapped_ellipse(img, centre, axes, angle, colour, width_px):
+    x, y = centre
+    for dx in (-width_px, 0, width_px):
+        cv2.ellipse(img, (int(x + dx), int(y)), axes, angle, 0, 360, colour, -1, cv2.LINE_AA)
+
+
+class _Plane(object):
+    """Textured plane n.p = dist (axis-aligned) with a texture mapping (a, b) in-plane coords."""
+
+    def __init__(self, axis, value, texture, origin, res, wrap):
+        self.axis, self.value = axis, value       # plane {p: p[axis] == value}
+        self.texture, self.origin, self.res, self.wrap = texture, origin, res, wrap
+
+
+class Renderer(object):
+    """Renders a scenario from any camera pose; static scene, dynamic fruit passed per call."""
+
+    def __init__(self, scenario, seed=None, noise_sigma=2.0, blur_sigma=0.6):
+        self.scenario = scenario
+        self.seed = int(scenario.seed if seed is None else seed)
+        self.noise_sigma = float(noise_sigma)
+        self.blur_sigma = float(blur_sigma)
+        lt = scenario.lighting
+        self.light_dir = np.asarray(lt.direction, dtype=float)
+        self.light_bgr = _bgr(lt.colour) * np.float32(lt.intensity)
+        # ambient = share of diffuse sky light: it dims with the intensity too
+        self.ambient_bgr = _bgr(lt.colour) * np.float32(lt.ambient * lt.intensity)
+        rng = np.random.default_rng(self.seed)
+        self.fruit_tex = _noise_texture(rng, (128, 256), 0.7)
+        self.leaf_tex = _noise_texture(rng, (128, 128), 1.0)
+        self.fruit_phase = rng.uniform(0.0, 1.0, 4096)
+        canopy_lit = np.float32((lt.ambient + 0.45) * lt.intensity)
+        self.planes = [
+            _Plane(0, scenario.track.backdrop_x, self._canopy(rng, canopy_lit), None, TEX_RES,
+                   False),
+            _Plane(0, scenario.track.aisle_x, self._canopy(rng, canopy_lit * 0.9), None,
+                   TEX_RES, False),
+            _Plane(2, 0.0, self._floor(rng, np.float32((lt.ambient + 0.6) * lt.intensity)),
+                   (0.0, 0.0), 0.004, True),
+            _Plane(2, ROOF_Z, self._roof(rng, np.float32(0.3 + 0.8 * lt.intensity)),
+                   (0.0, 0.0), 0.01, True)]
+        self.stems = [(s.points, s.radius) for s in scenario.stems]
+        self._noise = {}
+        self._rays = {}
+
+    # ------------------------------------------------------------------ textures
+    def _light(self, img_rgb_float, lit):
+        """Bake the scenario light (colour, `lit` = ambient + diffuse share) into a texture."""
+        out = img_rgb_float[:, :, ::-1] * (_bgr(self.scenario.lighting.colour) * lit)
+        return np.clip(out * 255.0, 0, 255).astype(np.uint8)
+
+    def _canopy(self, rng, lit):
+        """Dense foliage of the row behind the fruit, one tile wide, repeated three times."""
+        w = int(round(CANOPY_TILE[0] / TEX_RES))
+        h = int(round(CANOPY_TILE[1] / TEX_RES))
+        img = np.zeros((h, w, 3), np.float32)
+        img[:] = (0.07, 0.14, 0.05)
+        for _ in range(int(w * h / 900)):
+            g = rng.uniform(0.25, 0.75)
+            col = (0.10 + 0.25 * g * rng.uniform(0.6, 1.0), 0.18 + 0.42 * g,
+                   0.05 + 0.12 * g * rng.uniform(0.5, 1.0))
+            ax = (int(rng.uniform(8, 45)), int(rng.uniform(4, 18)))
+            _wrapped_ellipse(img, (rng.uniform(0, w), rng.uniform(0, h)), ax,
+                             rng.uniform(0, 180), col, w)
+        for _ in range(6):       # support twine and plant stems
+            x = int(rng.uniform(0, w))
+            cv2.line(img, (x, 0), (x + int(rng.uniform(-20, 20)), h), (0.75, 0.72, 0.6), 2,
+                     cv2.LINE_AA)
+        fine = _noise_texture(rng, (h, w), 1.0)
+        img *= (1.0 + 0.12 * fine)[:, :, None]
+        img = cv2.GaussianBlur(img, (0, 0), 1.0)
+        return np.concatenate([self._light(img, lit)] * 3, axis=1)
+
+    def _floor(self, rng, lit):
+        img = np.zeros((500, 500, 3), np.float32)
+        img[:] = (0.62, 0.62, 0.6)            # white-ish ground cover sheet
+        img *= (1.0 + 0.08 * _noise_texture(rng, (500, 500), 2.0))[:, :, None]
+        for x in (75, 150):                   # heating pipe rail along the row
+            cv2.line(img, (x, 0), (x, 499), (0.85, 0.85, 0.85), 10)
+        return self._light(img, lit)
+
+    def _roof(self, rng, lit):
+        img = np.zeros((400, 400, 3), np.float32)
+        img[:] = (0.85, 0.88, 0.92)
+        img *= (1.0 + 0.03 * _noise_texture(rng, (400, 400), 3.0))[:, :, None]
+        cv2.line(img, (0, 0), (399, 0), (0.3, 0.3, 0.32), 6)
+        cv2.line(img, (0, 0), (0, 399), (0.3, 0.3, 0.32), 6)
+        return self._light(img, lit)
+
+    # ------------------------------------------------------------------ helpers
+    def _ray_grid(self, camera):
+        key = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy)
+        if key not in self._rays:
+            xs, ys = camera.ray_grid()
+            self._rays[key] = (xs.astype(np.float32), ys.astype(np.float32))
+        return self._rays[key]
+
+    def noise_frames(self, name, width, height, count=4):
+        key = (name, width, height)
+        if key not in self._noise:
+            sub = sum(ord(c) * 131 ** i for i, c in enumerate(name)) % 100003
+            rng = np.random.default_rng([self.seed, sub])
+            bank = []
+            for _ in range(count):
+                n = rng.normal(0.0, self.noise_sigma, (height, width, 3)).astype(np.float32)
+                bank.append((np.clip(n, 0, 255).astype(np.uint8),
+                             np.clip(-n, 0, 255).astype(np.uint8)))
+            self._noise[key] = bank
+        return self._noise[key]
+
+    # ------------------------------------------------------------------ main entry
+    def render(self, camera, T_map_cam, fruits, noise_key=None, labels=False):
+        """BGR uint8 image (and an int16 label image if labels) seen by `camera` at T_map_cam.
+
+        fruits: RenderFruit list (map frame); noise_key: (camera name, frame index) selects the
+        deterministic noise frame, None renders without noise.
+        """
+        ctx = _Frame(self, camera, np.asarray(T_map_cam, dtype=float), labels)
+        self._background(ctx)
+        for f in fruits:
+            self._sphere(ctx, f)
+        for f in fruits:
+            top = np.asarray(f.position) + np.array([0.0, 0.0, 0.8 * f.radius])
+            if f.attached:
+                self._capsule(ctx, top, f.pedicel_top, PEDICEL_RADIUS, STEM_RGB, LABEL_STEM)
+            else:
+                stub = np.asarray(f.position) + np.array([0.0, 0.0, f.radius + 0.006])
+                self._capsule(ctx, top, stub, PEDICEL_RADIUS, STEM_RGB, LABEL_STEM)
+                if f.cut_point is not None:
+                    self._capsule(ctx, f.cut_point, f.pedicel_top, PEDICEL_RADIUS, STEM_RGB,
+                                  LABEL_STEM)
+        for points, radius in self.stems:
+            for a, b in zip(points[:-1], points[1:]):
+                self._capsule(ctx, a, b, radius, STEM_RGB, LABEL_STEM)
+        for i, leaf in enumerate(self.scenario.leaves):
+            self._leaf(ctx, leaf, LABEL_LEAF + i)
+        img = ctx.img
+        if self.blur_sigma > 0:
+            img = cv2.GaussianBlur(img, (3, 3), self.blur_sigma)
+        if noise_key is not None and self.noise_sigma > 0:
+            bank = self.noise_frames(noise_key[0], camera.width, camera.height)
+            pos, neg = bank[int(noise_key[1]) % len(bank)]
+            img = cv2.subtract(cv2.add(img, pos), neg)
+        if labels:
+            return img, ctx.labels
+        return img
+
+    # ------------------------------------------------------------------ background planes
+    def _background(self, ctx):
+        cam = ctx.camera
+        R, t = ctx.R, ctx.t
+        xs, ys = ctx.xs, ctx.ys
+        corners = np.array([[xs[0], ys[0], 1.0], [xs[-1], ys[0], 1.0], [xs[0], ys[-1], 1.0],
+                            [xs[-1], ys[-1], 1.0]])
+        depth = None
+        which = None
+        visible = []
+        for k, pl in enumerate(self.planes):
+            dist = pl.value - t[pl.axis]
+            row = R[pl.axis]                      # map component of ray = row . d
+            comp_c = corners.dot(row)
+            if not np.any(comp_c * dist > 0):     # the plane is behind at every corner
+                continue
+            comp = (np.float32(row[0]) * xs[None, :] + np.float32(row[1]) * ys[:, None] +
+                    np.float32(row[2]))
+            with np.errstate(divide='ignore', invalid='ignore'):
+                d = np.float32(dist) / comp
+            d[~(d > NEAR)] = np.inf
+            if depth is None:
+                depth, which = d, np.full(d.shape, k, np.int8)
+            else:
+                closer = d < depth
+                depth = np.where(closer, d, depth)
+                which[closer] = k
+            visible.append(k)
+        if depth is None:
+            ctx.img[:] = 200
+            return
+        for k in visible:
+            mask = which == k
+            if not mask.any():
+                continue
+            warped = self._warp_plane(ctx, self.planes[k])
+            if mask.all():
+                ctx.img[:] = warped
+            else:
+                ctx.img[mask] = warped[mask]
+        ctx.zbuf[:] = depth
+        sky = ~np.isfinite(depth)
+        if sky.any():
+            ctx.img[sky] = 210
+
+    def _warp_plane(self, ctx, pl):
+        """Homography texture -> image for plane pl; texture coordinates (col, row)."""
+        R, t, K = ctx.R, ctx.t, ctx.camera.K
+        h, w = pl.texture.shape[:2]
+        if pl.axis == 0:
+            # in-plane coords (y, z): p = (value, y, z); texture col = (y - y0)/res,
+            # row = (z_top - z)/res; canopy is three tiles wide, centred on the view
+            y_c = self._view_centre(ctx, pl)
+            tile = w / 3.0 * pl.res
+            y0 = math.floor(y_c / tile) * tile - tile
+            z_top = CANOPY_TILE[1] - 0.2
+            M = np.array([[0.0, 0.0, pl.value - t[0]], [1.0, 0.0, -t[1]], [0.0, 1.0, -t[2]]])
+            S = np.array([[pl.res, 0.0, y0], [0.0, -pl.res, z_top], [0.0, 0.0, 1.0]])
+            border = cv2.BORDER_REFLECT
+        else:
+            M = np.array([[1.0, 0.0, -t[0]], [0.0, 1.0, -t[1]], [0.0, 0.0, pl.value - t[2]]])
+            S = np.array([[pl.res, 0.0, 0.0], [0.0, pl.res, 0.0], [0.0, 0.0, 1.0]])
+            border = cv2.BORDER_WRAP
+        H = K.dot(R.T).dot(M).dot(S)          # texture pixel -> image pixel
+        return cv2.warpPerspective(pl.texture, H, (ctx.camera.width, ctx.camera.height),
+                                   flags=cv2.INTER_LINEAR, borderMode=border)
+
+    @staticmethod
+    def _view_centre(ctx, pl):
+        fwd = ctx.R[:, 2]
+        if abs(fwd[pl.axis]) > 1e-6:
+            s = (pl.value - ctx.t[pl.axis]) / fwd[pl.axis]
+            if s > 0:
+                return ctx.t[1] + s * fwd[1]
+        return ctx.t[1]
+
+    # ------------------------------------------------------------------ primitives
+    def _sphere(self, ctx, f):
+        C = ctx.to_cam(f.position)
+        r = float(f.radius)
+        if C[2] + r <= NEAR:
+            return
+        box = ctx.bbox_of_points(C + r * _CUBE) if C[2] - r > NEAR else ctx.full_box()
+        if box is None:
+            return
+        u0, u1, v0, v1 = box
+        X = ctx.xs[u0:u1][None, :]
+        Y = ctx.ys[v0:v1][:, None]
+        dC = X * np.float32(C[0]) + Y * np.float32(C[1]) + np.float32(C[2])
+        dd = X * X + Y * Y + np.float32(1.0)
+        disc = dC * dC - dd * np.float32(C.dot(C) - r * r)
+        hit = disc > 0
+        if not hit.any():
+            return
+        z = np.where(hit, (dC - np.sqrt(np.maximum(disc, 0))) / dd, np.inf)
+        zb = ctx.zbuf[v0:v1, u0:u1]
+        hit &= (z > NEAR) & (z < zb)
+        iy, ix = np.nonzero(hit)
+        if iy.size == 0:
+            return
+        zz = z[iy, ix]
+        P = np.stack([ctx.xs[u0 + ix] * zz, ctx.ys[v0 + iy] * zz, zz], axis=1)
+        n = (P - C.astype(np.float32)) / np.float32(r)
+        # fruit-fixed frame (the fruit hangs upright): up, and a horizontal reference
+        up = ctx.R[2].astype(np.float32)                 # map z in camera coordinates
+        e1 = ctx.R[0].astype(np.float32)                 # map x in camera coordinates
+        e2 = np.cross(up, e1)
+        cos_t = np.clip(n.dot(up), -1.0, 1.0)
+        theta = np.arccos(cos_t)
+        phase = self.fruit_phase[int(f.index) % len(self.fruit_phase)]
+        phi = np.arctan2(n.dot(e2), n.dot(e1)) / (2 * math.pi) + phase
+        th_n, tw_n = self.fruit_tex.shape
+        tex = self.fruit_tex[(theta * ((th_n - 1) / math.pi)).astype(np.int32),
+                             ((phi % 1.0) * tw_n).astype(np.int32) % tw_n]
+        albedo = _bgr(fruit_albedo(f.ripeness))
+        green = _bgr(fruit_albedo(0.1))
+        shoulder = (np.float32(0.6 * (1.0 - min(max(f.ripeness, 0.0), 1.0))) *
+                    np.clip(cos_t, 0, 1) ** 2)[:, None]
+        col = (albedo[None, :] * (1 - shoulder) + green[None, :] * shoulder) * \
+            (1.0 + 0.10 * tex)[:, None]
+        # calyx: five sepals round the top
+        ang = phi * (2 * math.pi)
+        sepal = np.abs(np.cos(2.5 * ang)) ** 0.6
+        calyx = theta < (0.18 + 0.42 * sepal) * (0.75 + 0.25 * (1.0 - f.ripeness))
+        col[calyx] = _bgr(CALYX_RGB) * (1.0 + 0.15 * tex[calyx, None])
+        l = -ctx.light_cam
+        diff = np.clip(n.dot(l), 0.0, None)[:, None]
+        v = -P / np.linalg.norm(P, axis=1)[:, None]
+        hvec = v + l[None, :]
+        hvec /= np.linalg.norm(hvec, axis=1)[:, None]
+        spec = np.clip((n * hvec).sum(axis=1), 0.0, None) ** 60 * np.float32(0.55)
+        spec[calyx] *= 0.1
+        out = col * (self.ambient_bgr + self.light_bgr * diff) + \
+            spec[:, None] * self.light_bgr[None, :]
+        ctx.put(v0 + iy, u0 + ix, zz, out, int(f.index) + 1)
+
+    def _leaf(self, ctx, leaf, label):
+        Lc = ctx.to_cam(leaf.centre)
+        N = ctx.R.T.dot(leaf.normal)
+        A = ctx.R.T.dot(leaf.axis)
+        B = np.cross(N, A)
+        hl, hw = leaf.length / 2.0, leaf.width / 2.0
+        corners = np.array([Lc + sa * hl * A + sb * hw * B for sa in (-1, 1) for sb in (-1, 1)])
+        if np.all(corners[:, 2] <= NEAR):
+            return
+        box = ctx.bbox_of_points(corners) if np.all(corners[:, 2] > NEAR) else ctx.full_box()
+        if box is None:
+            return
+        u0, u1, v0, v1 = box
+        X = ctx.xs[u0:u1][None, :]
+        Y = ctx.ys[v0:v1][:, None]
+        denom = X * np.float32(N[0]) + Y * np.float32(N[1]) + np.float32(N[2])
+        with np.errstate(divide='ignore', invalid='ignore'):
+            z = np.float32(Lc.dot(N)) / denom
+        z[~np.isfinite(z)] = -1.0
+        zb = ctx.zbuf[v0:v1, u0:u1]
+        ok = (z > NEAR) & (z < zb)
+        iy, ix = np.nonzero(ok)
+        if iy.size == 0:
+            return
+        zz = z[iy, ix]
+        P = np.stack([ctx.xs[u0 + ix] * zz, ctx.ys[v0 + iy] * zz, zz], axis=1)
+        D = P - Lc.astype(np.float32)
+        s = D.dot(A.astype(np.float32)) / np.float32(hl)
+        w = D.dot(B.astype(np.float32)) / np.float32(hw)
+        prof = np.sqrt(np.clip(1.0 - s * s, 0.0, None)) * (1.0 - 0.3 * s) * \
+            (1.0 + 0.07 * np.sin(s * 9.0 * math.pi))
+        inside = (np.abs(s) <= 1.0) & (np.abs(w) <= prof)
+        if not inside.any():
+            return
+        iy, ix, zz, s, w = iy[inside], ix[inside], zz[inside], s[inside], w[inside]
+        th, tw = self.leaf_tex.shape
+        tex = self.leaf_tex[((s + 1.0) * 0.5 * (th - 1)).astype(np.int32),
+                            ((w + 1.0) * 0.5 * (tw - 1)).astype(np.int32) % tw]
+        vein = (np.abs(w) < 0.05) | (np.abs(((s * 4.0 + np.abs(w) * 2.0) % 1.0) - 0.5) < 0.04)
+        col = _bgr(leaf.colour)[None, :] * (1.0 + 0.12 * tex)[:, None]
+        col[vein] *= 1.25
+        nd = float(N.dot(-ctx.light_cam))
+        # two-sided leaf: lit face, or light shining through (translucent)
+        lit = abs(nd) * (1.0 if nd * N.dot(-Lc) > 0 else 0.45)
+        out = col * (self.ambient_bgr + self.light_bgr * np.float32(lit))[None, :]
+        ctx.put(v0 + iy, u0 + ix, zz, out, label)
+
+    def _capsule(self, ctx, a_map, b_map, radius, rgb, label):
+        A, B = ctx.to_cam(a_map), ctx.to_cam(b_map)
+        if A[2] <= NEAR and B[2] <= NEAR:
+            return
+        if A[2] <= NEAR or B[2] <= NEAR:          # clip the segment at the near plane
+            if A[2] <= NEAR:
+                A, B = B, A
+            s = (A[2] - 2 * NEAR) / (A[2] - B[2])
+            B = A + s * (B - A)
+        zmin = max(min(A[2], B[2]) - radius, NEAR)
+        rp = ctx.camera.fx * radius / zmin + 2.0
+        uv = ctx.camera.project(np.array([A, B]))
+        u0 = int(math.floor(uv[:, 0].min() - rp))
+        u1 = int(math.ceil(uv[:, 0].max() + rp)) + 1
+        v0 = int(math.floor(uv[:, 1].min() - rp))
+        v1 = int(math.ceil(uv[:, 1].max() + rp)) + 1
+        box = ctx.clip_box(u0, u1, v0, v1)
+        if box is None:
+            return
+        u0, u1, v0, v1 = box
+        X = ctx.xs[u0:u1][None, :]
+        Y = ctx.ys[v0:v1][:, None]
+        V = (B - A).astype(np.float32)
+        A32 = A.astype(np.float32)
+        a = X * X + Y * Y + np.float32(1.0)
+        b = X * V[0] + Y * V[1] + V[2]
+        c = np.float32(V.dot(V))
+        dA = X * A32[0] + Y * A32[1] + A32[2]
+        vA = np.float32(V.dot(A32))
+        denom = a * c - b * b
+        with np.errstate(divide='ignore', invalid='ignore'):
+            s = np.where(denom > 1e-12, (b * dA - a * vA) / denom, 0.0)
+        s = np.clip(s, 0.0, 1.0)
+        t = (b * s + dA) / a                       # ray parameter (= depth) closest to Q(s)
+        dx = X * t - (A32[0] + s * V[0])
+        dy = Y * t - (A32[1] + s * V[1])
+        dz = t - (A32[2] + s * V[2])
+        dist2 = dx * dx + dy * dy + dz * dz
+        hit = dist2 < np.float32(radius * radius)
+        if not hit.any():
+            return
+        front = np.sqrt(np.maximum(np.float32(radius * radius) - dist2, 0.0) / a)
+        z = t - front
+        zb = ctx.zbuf[v0:v1, u0:u1]
+        hit &= (z > NEAR) & (z < zb)
+        iy, ix = np.nonzero(hit)
+        if iy.size == 0:
+            return
+        zz = z[iy, ix]
+        # surface normal: from the axis point to the front surface point
+        nx = dx[iy, ix] - ctx.xs[u0 + ix] * front[iy, ix]
+        ny = dy[iy, ix] - ctx.ys[v0 + iy] * front[iy, ix]
+        nz = dz[iy, ix] - front[iy, ix]
+        n = np.stack([nx, ny, nz], axis=1)
+        n /= np.maximum(np.linalg.norm(n, axis=1), 1e-9)[:, None]
+        diff = np.clip(n.dot(-ctx.light_cam), 0.0, None)[:, None]
+        out = _bgr(rgb)[None, :] * (self.ambient_bgr + self.light_bgr * diff)
+        ctx.put(v0 + iy, u0 + ix, zz, out, label)
+
+
+_CUBE = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
+                 dtype=float)
+
+
+class _Frame(object):
+    """Per-render state: camera, pose, image, depth buffer, labels."""
+
+    def __init__(self, renderer, camera, T, labels):
+        self.camera = camera
+        self.R, self.t = T[:3, :3], T[:3, 3]
+        self.xs, self.ys = renderer._ray_grid(camera)
+        self.img = np.empty((camera.height, camera.width, 3), np.uint8)
+        self.zbuf = np.full((camera.height, camera.width), np.inf, np.float32)
+        self.labels = np.zeros((camera.height, camera.width), np.int16) if labels else None
+        self.light_cam = self.R.T.dot(renderer.light_dir).astype(np.float32)
+
+    def to_cam(self, p):
+        return self.R.T.dot(np.asarray(p, dtype=float) - self.t)
+
+    def full_box(self):
+        return 0, self.camera.width, 0, self.camera.height
+
+    def clip_box(self, u0, u1, v0, v1):
+        u0, v0 = max(u0, 0), max(v0, 0)
+        u1, v1 = min(u1, self.camera.width), min(v1, self.camera.height)
+        if u0 >= u1 or v0 >= v1:
+            return None
+        return u0, u1, v0, v1
+
+    def bbox_of_points(self, pts):
+        uv = self.camera.project(pts)
+        return self.clip_box(int(math.floor(uv[:, 0].min())) - 1,
+                             int(math.ceil(uv[:, 0].max())) + 2,
+                             int(math.floor(uv[:, 1].min())) - 1,
+                             int(math.ceil(uv[:, 1].max())) + 2)
+
+    def put(self, rows, cols, z, bgr, label):
+        self.zbuf[rows, cols] = z
+        self.img[rows, cols] = np.clip(bgr * 255.0, 0, 255).astype(np.uint8)
+        if self.labels is not None:
+            self.labels[rows, cols] = label
+
+
+def camera_poses(geom, joints):
+    """Poses in map of the three cameras for a joint dict (URDF names)."""
+    poses = geom.frame_transforms(joints)
+    return {k: poses[k] for k in ('stereo_left_optical', 'stereo_right_optical',
+                                  'hand_camera_optical')}
+
+
+__all__ = ['Renderer', 'RenderFruit', 'fruit_albedo', 'fruits_from_scenario', 'camera_poses',
+           'camera_model']

@@ -1,0 +1,240 @@
+"""Ground truth of the simulated plant factory (pure logic, no rospy).
+
+The world follows the robot's joints (URDF names, ground truth from the simulated controller),
+the suction valve and the shear:
+
+* suction seals on a hanging fruit when the valve is open and the right suction tcp is within
+  `seal_tolerance` of the fruit surface point nearest to it (| |tcp - centre| - radius |); the
+  held fruit then moves with the tcp (translation only: it keeps hanging upright);
+* a shear close with the left shear tcp within `cut_tolerance` of a fruit's peduncle
+  (centre + (0, 0, radius + 0.01), moving with the fruit) cuts it: held -> HARVESTED,
+  not held -> DROPPED (falls to the floor, counted as damaged produce);
+* a shear close with the tcp inside a fruit body -> DAMAGED (the fruit is cut);
+* a held fruit still on its pedicel pulled more than `tear_distance` from where it hung is torn
+  off -> DAMAGED;
+* closing the valve releases the held fruit: HARVESTED -> COLLECTED, HELD -> back to HANGING
+  at its place on the plant, DAMAGED (off the plant) -> falls to the floor.
+
+Joint states and shear closes arrive on different topics, so their order is not guaranteed: a
+stamped shear close is applied with the first joint state stamped at or after it (the arm is
+still during a cut), or with the latest one after `flush_cuts` gives up waiting.
+"""
+
+import numpy as np
+
+from harvest_sim import scenario as scn
+
+HANGING, HELD, HARVESTED, COLLECTED, DROPPED, DAMAGED = range(6)
+STATE_NAMES = ('hanging', 'held', 'harvested', 'collected', 'dropped', 'damaged')
+SUCTION_TCP = 'right_suction_tcp'
+SHEAR_TCP = 'left_shear_tcp'
+
+
+class FruitTruth(object):
+    """Live state of one scenario fruit."""
+
+    def __init__(self, index, fruit):
+        self.index = index
+        self.fruit = fruit                        # scenario.Fruit (static description)
+        self.position = fruit.position.copy()     # centre now (map)
+        self.state = HANGING
+        self.attached = True                      # still on its pedicel
+        self.cut_point = None                     # where the pedicel was cut
+
+    @property
+    def id(self):
+        return self.fruit.id
+
+    @property
+    def radius(self):
+        return self.fruit.radius
+
+    @property
+    def peduncle(self):
+        return scn.default_peduncle(self.position, self.fruit.radius)
+
+    @property
+    def state_name(self):
+        return STATE_NAMES[self.state]
+
+
+class World(object):
+    """Suction, cutting and fruit motion; every method returns a list of event strings."""
+
+    def __init__(self, scenario, geom, seal_tolerance=0.012, cut_tolerance=0.010,
+                 tear_distance=0.12):
+        self.scenario = scenario
+        self.geom = geom
+        self.seal_tolerance = float(seal_tolerance)
+        self.cut_tolerance = float(cut_tolerance)
+        self.tear_distance = float(tear_distance)
+        self.fruits = [FruitTruth(i, f) for i, f in enumerate(scenario.fruits)]
+        self.joints = {}
+        self.joint_stamp = None                   # stamp (s) of the latest joint state
+        self.pending_cuts = []                    # stamps of shear closes not applied yet
+        self.poses = geom.frame_transforms({})
+        self.valve_open = False
+        self.held = None                          # FruitTruth held by suction
+        self.hold_offset = None                   # fruit centre in the suction tcp frame
+        self.seal_events = 0
+        self.cut_events = 0
+        self.version = 0                          # bumped on every change of fruit state/pose
+        self.state_version = 0                    # bumped on state changes only
+
+    # ------------------------------------------------------------------ inputs
+    def set_joints(self, joints, stamp=None):
+        """New joint positions {URDF name: value} (missing joints keep their last value);
+        stamp (s) applies the shear closes stamped up to it."""
+        self.joints.update(joints)
+        self.poses = self.geom.frame_transforms(self.joints)
+        if stamp is not None:
+            self.joint_stamp = float(stamp)
+        events = self._move_held()
+        due = [t for t in self.pending_cuts if stamp is None or t <= stamp]
+        if due:
+            self.pending_cuts = [t for t in self.pending_cuts if t not in due]
+            for _ in due:
+                events += self._cut()
+        return events
+
+    def _move_held(self):
+        events = []
+        if self.held is not None:
+            pose = self.poses[SUCTION_TCP]
+            new = pose[:3, 3] + pose[:3, :3].dot(self.hold_offset)
+            if np.any(np.abs(new - self.held.position) > 1e-7):
+                self.held.position = new
+                self.version += 1
+            if self.held.attached and np.linalg.norm(
+                    self.held.position - self.held.fruit.position) > self.tear_distance:
+                self.held.attached = False
+                self.held.cut_point = None
+                self.held.state = DAMAGED
+                self.state_version += 1
+                events.append('%s torn off its pedicel (pulled more than %.0f mm)'
+                              % (self.held.id, self.tear_distance * 1000))
+        elif self.valve_open:
+            events += self._try_seal()
+        return events
+
+    def set_valve(self, is_open):
+        """Suction valve opened (True) or closed (False)."""
+        is_open = bool(is_open)
+        if is_open == self.valve_open:
+            return []
+        self.valve_open = is_open
+        if is_open:
+            return self._try_seal()
+        return self._release()
+
+    def shear_cut(self, stamp=None):
+        """One shear close. Applied now if stamp is None or joints as recent exist, else
+        queued until a joint state stamped at or after it (see flush_cuts)."""
+        if stamp is None or (self.joint_stamp is not None and self.joint_stamp >= stamp):
+            return self._cut()
+        self.pending_cuts.append(float(stamp))
+        return []
+
+    def flush_cuts(self, now, max_wait):
+        """Apply queued shear closes older than max_wait (s) with the latest joints."""
+        events = []
+        for t in [t for t in self.pending_cuts if now - t >= max_wait]:
+            self.pending_cuts.remove(t)
+            events += self._cut()
+        return events
+
+    def _cut(self):
+        self.cut_events += 1
+        tip = self.tcp(SHEAR_TCP)
+        events = []
+        live = [f for f in self.fruits if f.state in (HANGING, HELD)]
+        cand = [(np.linalg.norm(tip - f.peduncle), f) for f in live]
+        cand = [c for c in cand if c[0] <= self.cut_tolerance]
+        if cand:
+            d, f = min(cand, key=lambda c: c[0])
+            f.attached = False
+            f.cut_point = f.peduncle
+            if f is self.held:
+                f.state = HARVESTED
+                events.append('%s harvested (shear %.1f mm from the peduncle)' % (f.id, d * 1000))
+            else:
+                f.state = DROPPED
+                f.position = np.array([f.position[0], f.position[1], f.radius])
+                events.append('%s cut without suction: dropped (shear %.1f mm from the peduncle)'
+                              % (f.id, d * 1000))
+            self.version += 1
+            self.state_version += 1
+        for f in live:
+            if f.state in (HANGING, HELD) and np.linalg.norm(tip - f.position) < f.radius:
+                f.state = DAMAGED
+                events.append('%s damaged: shear closed inside the fruit' % f.id)
+                self.version += 1
+                self.state_version += 1
+        if not events:
+            events.append('shear closed on nothing')
+        return events
+
+    # ------------------------------------------------------------------ internals
+    def tcp(self, frame):
+        return self.poses[frame][:3, 3].copy()
+
+    def _try_seal(self):
+        tcp = self.tcp(SUCTION_TCP)
+        best, best_d = None, None
+        for f in self.fruits:
+            if f.state not in (HANGING, DAMAGED) or not f.attached:
+                continue
+            d = abs(np.linalg.norm(tcp - f.position) - f.radius)
+            if best is None or d < best_d:
+                best, best_d = f, d
+        if best is None or best_d > self.seal_tolerance:
+            return []
+        self.held = best
+        self.hold_offset = self.poses[SUCTION_TCP][:3, :3].T.dot(best.position - tcp)
+        if best.state == HANGING:
+            best.state = HELD
+        self.seal_events += 1
+        self.version += 1
+        self.state_version += 1
+        return ['%s sealed by suction (%.1f mm from its surface)' % (best.id, best_d * 1000)]
+
+    def _release(self):
+        f = self.held
+        if f is None:
+            return []
+        self.held, self.hold_offset = None, None
+        self.version += 1
+        self.state_version += 1
+        if f.state == HARVESTED:
+            f.state = COLLECTED
+            return ['%s collected (released at %s)' % (f.id, np.round(f.position, 3).tolist())]
+        if f.state == HELD:
+            f.state = HANGING
+            f.position = f.fruit.position.copy()
+            return ['%s released uncut: back on the plant' % f.id]
+        if not f.attached:
+            f.position = np.array([f.position[0], f.position[1], f.radius])
+            return ['%s released off the plant: fell to the floor' % f.id]
+        return ['%s released' % f.id]
+
+    # ------------------------------------------------------------------ outputs
+    @property
+    def sealed(self):
+        return self.held is not None
+
+    def summary(self):
+        """Counts for tests and benchmarks."""
+        counts = dict((name, 0) for name in STATE_NAMES)
+        for f in self.fruits:
+            counts[STATE_NAMES[f.state]] += 1
+        counts['held_now'] = 1 if self.held is not None else 0
+        counts['total'] = len(self.fruits)
+        counts['ripe'] = sum(1 for f in self.fruits if f.fruit.ripe)
+        counts['ripe_reachable'] = sum(1 for f in self.fruits
+                                       if f.fruit.ripe and f.fruit.reachable)
+        counts['collected_ripe'] = sum(1 for f in self.fruits
+                                       if f.state == COLLECTED and f.fruit.ripe)
+        counts['collected_unripe'] = counts['collected'] - counts['collected_ripe']
+        counts['seal_events'] = self.seal_events
+        counts['cut_events'] = self.cut_events
+        return counts

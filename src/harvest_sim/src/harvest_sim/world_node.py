@@ -1,0 +1,177 @@
+"""ROS glue of the simulated world (node ``sim_world``, run in namespace ``sim``).
+
+Owns the ground truth (harvest_sim.world.World) of the scenario and publishes it under /sim only.
+
+Subscriptions (relative; the node runs in namespace ``sim``):
+  joint_states (sensor_msgs/JointState)  ground-truth joints from the simulated controller
+  suction_valve (std_msgs/Bool)          suction valve open/closed
+  shear_cut (std_msgs/Header)            one per shear close (applied with the first joint
+                                         state stamped at or after it, or after 0.5 s)
+Publications:
+  suction_sealed (std_msgs/Bool, latched)        true while the suction holds a fruit
+  fruits (harvest_sim/SimFruitArray, latched)    every fruit, on change and at ~publish_rate
+Services:
+  get_summary (harvest_sim/GetSimSummary)        counts by state
+Parameters:
+  ~scenario (required): scenario name (scenarios/NAME.yaml) or file path
+  ~robot_config: robot.yaml path (default visualization_pkg/config/robot.yaml)
+  ~seal_tolerance (0.012 m), ~cut_tolerance (0.010 m), ~tear_distance (0.12 m),
+  ~publish_rate (10 Hz, ROS time), ~motion_rate (30 Hz: most often a moving held fruit is
+  republished; state changes are published at once)
+Sets /track/picking_points (the track layout a real robot reads from its site config).
+"""
+
+import os
+import threading
+
+import rospkg
+import rospy
+from geometry_msgs.msg import Point
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool, Header
+
+from harvest_sim import names
+from harvest_sim import scenario as scn
+from harvest_sim.msg import SimFruit, SimFruitArray
+from harvest_sim.srv import GetSimSummary, GetSimSummaryResponse
+from harvest_sim.world import World
+from motion_pkg.kinematics import RobotGeometry
+
+
+#: s of ROS time a stamped shear close waits for a joint state as recent as itself
+CUT_WAIT = 0.5
+
+
+def default_robot_config():
+    return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+
+
+def scenarios_dir():
+    return os.path.join(rospkg.RosPack().get_path('harvest_sim'), 'scenarios')
+
+
+def load_scenario_param():
+    """Scenario from ~scenario; logs an actionable message and raises if it is missing/bad."""
+    value = rospy.get_param('~scenario', '')
+    if not value:
+        msg = ('~scenario is required: a name from harvest_sim/scenarios (e.g. default, '
+               'three_targets) or a scenario file path')
+        rospy.logfatal(msg)
+        raise rospy.ROSInitException(msg)
+    path = scn.resolve_scenario(value, scenarios_dir())
+    try:
+        return scn.load_scenario(path)
+    except scn.ScenarioError as e:
+        rospy.logfatal('bad scenario: %s', e)
+        raise rospy.ROSInitException(str(e))
+
+
+def _point(v):
+    return Point(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+
+
+def fruit_array(world, stamp):
+    """SimFruitArray of the world's current state."""
+    msg = SimFruitArray()
+    msg.header.stamp = stamp
+    msg.header.frame_id = 'map'
+    msg.scenario = world.scenario.name
+    for f in world.fruits:
+        s = f.fruit
+        m = SimFruit(id=f.id, state=f.state, state_name=f.state_name,
+                     position=_point(f.position), peduncle=_point(f.peduncle),
+                     pedicel_top=_point(s.pedicel_top),
+                     cut_point=_point(f.cut_point if f.cut_point is not None else f.peduncle),
+                     radius=s.radius, ripeness=s.ripeness, ripe=s.ripe,
+                     reachable=s.reachable, picking_point=s.picking_point,
+                     attached=f.attached, held=f is world.held, cluster=s.cluster,
+                     truss=s.truss)
+        msg.fruits.append(m)
+    return msg
+
+
+class SimWorldNode(object):
+    def __init__(self):
+        scenario = load_scenario_param()
+        geom = RobotGeometry.from_yaml(rospy.get_param('~robot_config', '') or
+                                       default_robot_config())
+        self.world = World(scenario, geom,
+                           rospy.get_param('~seal_tolerance', 0.012),
+                           rospy.get_param('~cut_tolerance', 0.010),
+                           rospy.get_param('~tear_distance', 0.12))
+        self._lock = threading.Lock()
+        self._published_version = -1
+        self._published_state = -1
+        self._last_pub = rospy.Time(0)
+        self._motion_period = rospy.Duration(1.0 / float(rospy.get_param('~motion_rate', 30.0)))
+        self._sealed = None
+        rospy.set_param(names.PICKING_POINTS_PARAM, list(scenario.track.picking_points))
+        self.sealed_pub = rospy.Publisher(names.SUCTION_SEALED, Bool, queue_size=1, latch=True)
+        self.fruits_pub = rospy.Publisher(names.FRUITS, SimFruitArray, queue_size=1, latch=True)
+        self._publish(force=True)
+        rospy.Service(names.GET_SUMMARY, GetSimSummary, self._summary)
+        rospy.Subscriber(names.JOINT_STATES, JointState, self._on_joints, queue_size=5)
+        rospy.Subscriber(names.SUCTION_VALVE, Bool, self._on_valve, queue_size=5)
+        rospy.Subscriber(names.SHEAR_CUT, Header, self._on_cut, queue_size=5)
+        rate = float(rospy.get_param('~publish_rate', 10.0))
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._on_timer)
+        rospy.loginfo('sim_world: scenario %s (%s), %d fruit, %d picking points',
+                      scenario.name, scenario.source, len(scenario.fruits),
+                      len(scenario.track.picking_points))
+
+    def _log(self, events):
+        for e in events:
+            rospy.loginfo('sim_world: %s', e)
+
+    def _on_joints(self, msg):
+        joints = dict(zip(msg.name, msg.position))
+        stamp = msg.header.stamp.to_sec() if not msg.header.stamp.is_zero() else None
+        with self._lock:
+            self._log(self.world.set_joints(joints, stamp))
+        self._publish()
+
+    def _on_valve(self, msg):
+        with self._lock:
+            self._log(self.world.set_valve(msg.data))
+        self._publish()
+
+    def _on_cut(self, msg):
+        stamp = msg.stamp.to_sec() if not msg.stamp.is_zero() else None
+        with self._lock:
+            self._log(self.world.shear_cut(stamp))
+        self._publish()
+
+    def _on_timer(self, _event):
+        with self._lock:
+            self._log(self.world.flush_cuts(rospy.get_time(), CUT_WAIT))
+        self._publish(force=True)
+
+    def _publish(self, force=False):
+        now = rospy.Time.now()
+        with self._lock:
+            w = self.world
+            sealed = w.sealed
+            moved = w.version != self._published_version
+            due = (w.state_version != self._published_state or force or
+                   (moved and (now - self._last_pub >= self._motion_period or
+                               now < self._last_pub)))
+            send_sealed = sealed != self._sealed
+            msg = fruit_array(w, now) if due else None
+            if due:
+                self._published_version, self._published_state = w.version, w.state_version
+                self._last_pub = now
+            self._sealed = sealed
+        if send_sealed:
+            self.sealed_pub.publish(Bool(data=sealed))
+        if msg is not None:
+            self.fruits_pub.publish(msg)
+
+    def _summary(self, _req):
+        with self._lock:
+            c = self.world.summary()
+        r = GetSimSummaryResponse(scenario=self.world.scenario.name)
+        for key in ('total', 'ripe', 'ripe_reachable', 'hanging', 'held', 'harvested',
+                    'collected', 'collected_ripe', 'collected_unripe', 'dropped', 'damaged',
+                    'seal_events', 'cut_events'):
+            setattr(r, key, c[key])
+        return r

@@ -1,0 +1,128 @@
+"""World logic (no ROS master): suction seal, held fruit motion, harvest, drop, damage."""
+
+import numpy as np
+import pytest
+
+from sim_fixtures import GEOM, scn
+
+from harvest_sim import world as w
+
+F0 = np.array([0.45, 0.05, 0.95])
+F1 = np.array([0.50, -0.12, 0.90])
+R = 0.035
+
+
+def make_world(**kw):
+    s = scn.Scenario('t', scn.Track([0.0]), scn.Lighting(),
+                     [scn.Fruit('f0', F0, R, 0.9, picking_point=0, reachable=True),
+                      scn.Fruit('f1', F1, R, 0.3, picking_point=0, reachable=True)])
+    return w.World(s, GEOM, **kw)
+
+
+def arm(name, target, standoff=0.0, other=None):
+    ik = GEOM.inverse(name, target, standoff=standoff, other_arm_joints=other)
+    assert ik.reachable, ik.reason
+    return dict(zip(['%s_%s_joint' % (name, j) for j in ('lift', 'boom', 'forearm')],
+                    ik.joints)), ik.joints
+
+
+def suction_at(centre, extra=0.0):
+    """Right arm with the suction tcp on the fruit surface (+extra metres further out)."""
+    return arm('right', centre, standoff=R + extra)
+
+
+def test_seal_moves_fruit_and_harvest_then_collect():
+    world = make_world()
+    joints, rj = suction_at(F0)
+    world.set_joints(joints)
+    assert world.set_valve(True) and world.sealed
+    f0 = world.fruits[0]
+    assert f0.state == w.HELD
+    # pull the fruit 3 cm toward the robot: it follows the tcp
+    pulled = F0 + [-0.03, 0.0, 0.0]
+    joints, rj = suction_at(pulled)
+    world.set_joints(joints)
+    assert np.allclose(f0.position, pulled, atol=1e-3)
+    assert np.allclose(f0.peduncle, pulled + [0, 0, R + 0.01], atol=1e-3)
+    left, _ = arm('left', f0.peduncle + [0.004, 0.0, 0.0], other=rj)
+    world.set_joints(left)
+    events = world.shear_cut()
+    assert f0.state == w.HARVESTED and not f0.attached, events
+    # carry it away, release: collected
+    joints, _ = arm('right', (0.2, -0.45, 0.85))
+    world.set_joints(joints)
+    assert np.linalg.norm(f0.position - F0) > 0.2       # no tearing: it is cut off already
+    assert f0.state == w.HARVESTED
+    world.set_valve(False)
+    assert f0.state == w.COLLECTED and not world.sealed
+    c = world.summary()
+    assert (c['collected'], c['collected_ripe'], c['hanging'], c['seal_events'],
+            c['cut_events']) == (1, 1, 1, 1, 1)
+
+
+def test_no_seal_beyond_tolerance_but_seal_when_tcp_arrives():
+    world = make_world(seal_tolerance=0.012)
+    joints, _ = suction_at(F0, extra=0.02)          # 20 mm short of the surface
+    world.set_joints(joints)
+    world.set_valve(True)
+    assert not world.sealed and world.fruits[0].state == w.HANGING
+    joints, _ = suction_at(F0, extra=0.008)         # 8 mm: within tolerance
+    world.set_joints(joints)
+    assert world.sealed and world.fruits[0].state == w.HELD
+
+
+def test_cut_without_suction_drops_and_cut_elsewhere_does_nothing():
+    world = make_world()
+    f1 = world.fruits[1]
+    left, _ = arm('left', f1.peduncle + [0.0, 0.0, 0.02])    # 20 mm above: miss
+    world.set_joints(left)
+    assert world.shear_cut() == ['shear closed on nothing']
+    left, _ = arm('left', f1.peduncle)
+    world.set_joints(left)
+    world.shear_cut()
+    assert f1.state == w.DROPPED and f1.position[2] == pytest.approx(R)
+    assert world.summary()['dropped'] == 1
+
+
+def test_shear_inside_fruit_damages_it():
+    world = make_world()
+    left, _ = arm('left', F1 + [0.0, 0.0, 0.01])
+    world.set_joints(left)
+    world.shear_cut()
+    assert world.fruits[1].state == w.DAMAGED
+
+
+def test_release_uncut_returns_fruit_and_tearing_damages():
+    world = make_world(tear_distance=0.05)
+    joints, _ = suction_at(F0)
+    world.set_joints(joints)
+    world.set_valve(True)
+    joints, _ = suction_at(F0 + [-0.02, 0, 0])
+    world.set_joints(joints)
+    world.set_valve(False)
+    f0 = world.fruits[0]
+    assert f0.state == w.HANGING and np.allclose(f0.position, F0)
+    joints, _ = suction_at(F0)
+    world.set_joints(joints)
+    world.set_valve(True)
+    joints, _ = suction_at(F0 + [-0.08, 0, 0])
+    events = world.set_joints(joints)
+    assert f0.state == w.DAMAGED and not f0.attached, events
+    world.set_valve(False)
+    assert f0.position[2] == pytest.approx(R)           # fell to the floor
+
+
+def test_stamped_cut_waits_for_joints_as_recent():
+    world = make_world()
+    f1 = world.fruits[1]
+    away, _ = arm('left', (0.4, 0.3, 1.0))
+    world.set_joints(away, stamp=10.0)
+    assert world.shear_cut(stamp=10.5) == []           # queued: joints are older
+    there, _ = arm('left', f1.peduncle)
+    world.set_joints(there, stamp=10.4)
+    assert f1.state == w.HANGING
+    world.set_joints(there, stamp=10.6)                 # first joints at/after the cut
+    assert f1.state == w.DROPPED
+    world.shear_cut(stamp=11.0)
+    assert world.flush_cuts(now=11.2, max_wait=0.5) == []
+    assert world.flush_cuts(now=11.6, max_wait=0.5) == ['shear closed on nothing']
