@@ -1,0 +1,121 @@
+/**
+ * @file visual_servo_cycle_node.h
+ * @brief The `visual_servo` action server: the eye-hand coordination loop of the paper's Figure 25
+ *        (class VisualServoCycleNode of Figure 26). The control law lives in VisualServoControl.
+ */
+#ifndef COOPERATION_PKG_VISUAL_SERVO_CYCLE_NODE_H
+#define COOPERATION_PKG_VISUAL_SERVO_CYCLE_NODE_H
+
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <actionlib/client/simple_action_client.h>
+#include <actionlib/server/simple_action_server.h>
+#include <dynamic_reconfigure/server.h>
+#include <geometry_msgs/PointStamped.h>
+#include <ros/ros.h>
+#include <sensor_msgs/JointState.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+#include <trajectory_msgs/JointTrajectoryPoint.h>
+
+#include <harvest_msgs/ImageProcessingAction.h>
+#include <harvest_msgs/KinematicsAction.h>
+#include <harvest_msgs/MoveRobotAction.h>
+#include <harvest_msgs/VisualServoAction.h>
+
+#include "cooperation_pkg/VisualServoConfig.h"
+#include "cooperation_pkg/visual_servo_control.h"
+
+namespace cooperation_pkg
+{
+/** Tunables of one servo run (private params, dynamic_reconfigure, goal overrides). */
+struct ServoSettings
+{
+  double gain = 0.5;                  ///< lambda [1/s]
+  double adaptive_gain_at_infinity = 0.0;  ///< > 0 selects vpAdaptiveGain(gain, this, slope)
+  double adaptive_slope_at_zero = 0.0;
+  double dt = 1.0;                    ///< integration time of the velocity per iteration [s]
+  double threshold = 0.002;           ///< stop when the error at the target is below [m]
+  int max_iterations = 15;            ///< control moves before giving up
+  double peduncle_gap = 0.01;         ///< tool centre above the fruit top [m]
+  double default_radius = 0.035;      ///< fruit radius when the goal gives 0 [m]
+  int max_lost = 3;                   ///< consecutive images without the target before aborting
+  double max_step = 0.30;             ///< largest tool displacement per iteration [m]
+  double max_gain_dt = 0.8;           ///< goals with gain * dt above this are rejected (divergence)
+  bool translation_only = true;       ///< solve the law for translations only (SCARA)
+};
+
+class VisualServoCycleNode
+{
+public:
+  VisualServoCycleNode(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~VisualServoCycleNode();
+
+private:
+  typedef actionlib::SimpleActionServer<harvest_msgs::VisualServoAction> Server;
+  typedef actionlib::SimpleActionClient<harvest_msgs::ImageProcessingAction> ImageClient;
+  typedef actionlib::SimpleActionClient<harvest_msgs::KinematicsAction> KinematicsClient;
+  typedef actionlib::SimpleActionClient<harvest_msgs::MoveRobotAction> MoveClient;
+
+  /** Outcome of one step of the loop. */
+  enum class Step
+  {
+    OK,
+    LOST,       ///< image processing answered, but without the target
+    FAILED,     ///< a sub-action failed / timed out or a transform is missing (message set)
+    PREEMPTED   ///< the visual_servo goal was preempted (sub-goal cancelled)
+  };
+
+  void execute(const harvest_msgs::VisualServoGoalConstPtr &goal);
+  void jointStatesCallback(const sensor_msgs::JointState::ConstPtr &msg);
+  void reconfigure(VisualServoConfig &config, uint32_t level);
+
+  bool makeSettings(const harvest_msgs::VisualServoGoal &goal, ServoSettings &s, double &radius,
+                    std::string &why) const;
+  bool waitForServers(std::string &why);
+  Step requestFeature(const geometry_msgs::PointStamped &target, harvest_msgs::ServoFeature &feature,
+                      std::string &why);
+  Step solveIk(const geometry_msgs::PointStamped &tool_point, trajectory_msgs::JointTrajectoryPoint &joints,
+               std::string &why);
+  Step move(const trajectory_msgs::JointTrajectoryPoint &joints, std::string &why);
+  /** Sends a sub-goal and waits for it, cancelling it on preempt or timeout. */
+  template <class Client, class Goal>
+  Step runSubGoal(Client &client, const Goal &goal, double timeout, const char *name, std::string &why);
+  bool lookup(const std::string &target, const std::string &source, const ros::Time &stamp,
+              geometry_msgs::TransformStamped &out, std::string &why) const;
+  trajectory_msgs::JointTrajectoryPoint currentLeftJoints() const;
+  void finish(bool success, int iterations, double error, const std::string &message,
+              const trajectory_msgs::JointTrajectoryPoint &last_commanded);
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string base_frame_;
+  std::string camera_frame_;
+  std::string tool_frame_;
+  double image_timeout_;
+  double kinematics_timeout_;
+  double move_timeout_;
+  double server_timeout_;
+  double tf_timeout_;
+
+  mutable std::mutex settings_mutex_;
+  ServoSettings settings_;
+
+  mutable std::mutex joints_mutex_;
+  sensor_msgs::JointState last_joint_state_;
+
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ImageClient image_client_;
+  KinematicsClient kinematics_client_;
+  MoveClient move_client_;
+  ros::Subscriber joint_sub_;
+  std::unique_ptr<dynamic_reconfigure::Server<VisualServoConfig>> reconfigure_server_;
+  Server server_;
+};
+
+}  // namespace cooperation_pkg
+
+#endif  // COOPERATION_PKG_VISUAL_SERVO_CYCLE_NODE_H
