@@ -1,0 +1,416 @@
+"""Behaviour of the simulated multi-axis motion controller behind its Modbus registers.
+
+Pure logic, no ROS, no networking. Every call takes the current controller time ``t`` (seconds;
+the ROS node passes ROS time, so the model follows /clock). Axis motion is evaluated
+analytically from trapezoidal profiles (controller_profile), so a register read returns the
+exact state at that instant. The register layout is in controller_map.
+
+Thread safety: all public methods take one lock (the Modbus server thread and the ROS timer
+thread both call in).
+"""
+
+import math
+import threading
+
+from harvest_sim import controller_map as cm
+from harvest_sim.controller_profile import plan_move, plan_stop
+
+HALF_COUNT = 0.5
+
+
+class AxisConfig(object):
+    """Limits and motion maxima of one axis, SI units (m or rad, per second)."""
+
+    def __init__(self, name, minimum, maximum, max_speed, max_acceleration, initial=0.0):
+        if not minimum <= initial <= maximum:
+            raise ValueError('initial position %g of axis %s outside [%g, %g]'
+                             % (initial, name, minimum, maximum))
+        if max_speed <= 0.0 or max_acceleration <= 0.0:
+            raise ValueError('axis %s needs positive maximum speed and acceleration' % name)
+        self.name = name
+        self.minimum = float(minimum)
+        self.maximum = float(maximum)
+        self.max_speed = float(max_speed)
+        self.max_acceleration = float(max_acceleration)
+        self.initial = float(initial)
+        self.counts = cm.counts_per_unit(name)
+
+
+def axes_from_robot_config(robot_yaml, initial=None):
+    """AxisConfig list in controller order from the parsed robot.yaml dictionary."""
+    initial = initial or {}
+    robot = robot_yaml['robot']
+    motion = robot_yaml['motion']
+    configs = []
+    for name in robot_yaml['axes']:
+        if name == 'cart':
+            lo, hi, kind = robot['track']['min'], robot['track']['max'], 'cart'
+        elif name == 'waist':
+            lo, hi, kind = robot['waist']['min'], robot['waist']['max'], 'waist'
+        else:
+            kind = name.split('_', 1)[1]          # right_lift -> lift
+            lim = robot['joint_limits'][kind]
+            lo, hi = lim['min'], lim['max']
+        start = float(initial.get(name, min(max(0.0, lo), hi)))
+        configs.append(AxisConfig(name, lo, hi, motion['speed'][kind],
+                                  motion['acceleration'][kind], start))
+    return configs
+
+
+class SimAxis(object):
+    """One drive: command registers, enable/fault state and the running profile."""
+
+    def __init__(self, config):
+        self.cfg = config
+        self.command = [0] * cm.COMMAND_STRIDE      # raw command registers
+        self.enable_cmd = False
+        self.fault = cm.FAULT_NONE
+        self.rest_position = config.initial
+        self.profile = None
+        self._set_int32(cm.CMD_TARGET_POSITION, self.to_counts(config.initial))
+
+    # --- units -------------------------------------------------------------------------
+    def to_counts(self, value):
+        return cm.clamp_int32(round(value * self.cfg.counts))
+
+    def _int32(self, offset):
+        return cm.join_int32(self.command[offset], self.command[offset + 1])
+
+    def _set_int32(self, offset, value):
+        self.command[offset:offset + 2] = cm.split_int32(value)
+
+    # --- state ---------------------------------------------------------------------------
+    def settle(self, t):
+        if self.profile is not None and self.profile.done(t):
+            self.rest_position = self.profile.end_position
+            self.profile = None
+
+    def state(self, t):
+        """(position, velocity) in SI units."""
+        self.settle(t)
+        if self.profile is None:
+            return self.rest_position, 0.0
+        return self.profile.state(t)
+
+    @property
+    def enabled(self):
+        return self.enable_cmd and self.fault == cm.FAULT_NONE
+
+    def moving(self, t):
+        self.settle(t)
+        return self.profile is not None
+
+    def status_word(self, t):
+        pos, _ = self.state(t)
+        moving = self.profile is not None
+        in_pos = (not moving and abs(self.to_counts(pos) - self._int32(cm.CMD_TARGET_POSITION))
+                  <= cm.IN_POSITION_WINDOW)
+        return ((self.enabled << cm.SW_ENABLED) | (moving << cm.SW_MOVING)
+                | (in_pos << cm.SW_IN_POSITION) | ((self.fault != 0) << cm.SW_FAULT))
+
+    def feedback(self, t):
+        pos, vel = self.state(t)
+        regs = [0] * cm.FEEDBACK_STRIDE
+        regs[cm.FB_ACTUAL_POSITION:cm.FB_ACTUAL_POSITION + 2] = cm.split_int32(self.to_counts(pos))
+        regs[cm.FB_ACTUAL_VELOCITY:cm.FB_ACTUAL_VELOCITY + 2] = cm.split_int32(self.to_counts(vel))
+        regs[cm.FB_STATUS_WORD] = self.status_word(t)
+        regs[cm.FB_FAULT_CODE] = self.fault
+        return regs
+
+    # --- commands ------------------------------------------------------------------------
+    def halt(self, t):
+        pos, vel = self.state(t)
+        if self.profile is not None:
+            self.profile = plan_stop(t, pos, vel, self.cfg.max_acceleration)
+            self.rest_position = self.profile.end_position
+            self.settle(t)
+
+    def raise_fault(self, code, t):
+        self.fault = int(code)
+        self.halt(t)
+
+    def set_enable(self, flag, t):
+        if self.enable_cmd and not flag:
+            self.halt(t)
+        self.enable_cmd = bool(flag)
+
+    def start(self, t):
+        if self.fault != cm.FAULT_NONE:
+            return
+        if not self.enable_cmd:
+            self.raise_fault(cm.FAULT_NOT_ENABLED, t)
+            return
+        target = self._int32(cm.CMD_TARGET_POSITION) / self.cfg.counts
+        half = HALF_COUNT / self.cfg.counts
+        if not self.cfg.minimum - half <= target <= self.cfg.maximum + half:
+            self.raise_fault(cm.FAULT_TARGET_OUT_OF_RANGE, t)
+            return
+        target = min(max(target, self.cfg.minimum), self.cfg.maximum)
+        speed = self._limit(self._int32(cm.CMD_SPEED), self.cfg.max_speed)
+        accel = self._limit(self._int32(cm.CMD_ACCELERATION), self.cfg.max_acceleration)
+        if speed is None or accel is None:
+            self.raise_fault(cm.FAULT_BAD_PROFILE, t)
+            return
+        pos, vel = self.state(t)
+        self.profile = plan_move(t, pos, vel, target, speed, accel)
+        self.rest_position = self.profile.end_position
+        self.settle(t)
+
+    def _limit(self, counts, maximum):
+        """Register value (counts/s) -> SI, 0 = maximum, clipped; None when negative."""
+        if counts < 0:
+            return None
+        if counts == 0:
+            return maximum
+        return min(counts / self.cfg.counts, maximum)
+
+    def write_command(self, offset, value, t):
+        """One command register written (registers of a block arrive in address order)."""
+        if offset != cm.CMD_CONTROL_WORD:
+            self.command[offset] = value & 0xFFFF
+            return
+        self.command[offset] = value & (1 << cm.CW_ENABLE)    # pulse bits read back as 0
+        if value & (1 << cm.CW_CLEAR_FAULT):
+            self.fault = cm.FAULT_NONE
+        self.set_enable(bool(value & (1 << cm.CW_ENABLE)), t)
+        if value & (1 << cm.CW_HALT):
+            self.halt(t)
+        if value & (1 << cm.CW_START):
+            self.start(t)
+
+
+class ControllerModel(object):
+    """All axes plus the suction valve, vacuum sensor and pneumatic shear."""
+
+    def __init__(self, axis_configs, suction_build_up=0.5, shear_stroke=0.3, shear_hold=0.2,
+                 t0=0.0):
+        self._lock = threading.RLock()
+        self.axes = [SimAxis(c) for c in axis_configs]
+        self.names = [c.name for c in axis_configs]
+        self.suction_build_up = float(suction_build_up)
+        self.shear_stroke = float(shear_stroke)
+        self.shear_hold = float(shear_hold)
+        self._t = t0
+        self.valve_open = False
+        self._valve_since = t0
+        self.sealed = False
+        self._sealed_since = t0
+        self._shear_start = None
+        self._shear_close_reported = False
+        self.shear_count = 0
+        self._events = []
+
+    # --- time ----------------------------------------------------------------------------
+    def _now(self, t):
+        """Controller time never runs backwards; also advances the shear."""
+        self._t = max(self._t, float(t))
+        t = self._t
+        if self._shear_start is not None:
+            close = self._shear_start + self.shear_stroke
+            if not self._shear_close_reported and t >= close:
+                self._shear_close_reported = True
+                self.shear_count = (self.shear_count + 1) & 0xFFFF
+                self._events.append(('shear_cut', close))
+            if t >= close + self.shear_hold:
+                self._shear_start = None
+        return t
+
+    def update(self, t):
+        with self._lock:
+            self._now(t)
+
+    # --- I/O -----------------------------------------------------------------------------
+    def vacuum_ok(self, t):
+        with self._lock:
+            t = self._now(t)
+            return (self.valve_open and self.sealed and
+                    t - max(self._valve_since, self._sealed_since) >= self.suction_build_up - 1e-9)
+
+    def shear_closed(self, t):
+        with self._lock:
+            t = self._now(t)
+            return (self._shear_start is not None and
+                    t >= self._shear_start + self.shear_stroke)
+
+    def shear_busy(self, t):
+        with self._lock:
+            self._now(t)
+            return self._shear_start is not None
+
+    def set_valve(self, flag, t):
+        with self._lock:
+            t = self._now(t)
+            flag = bool(flag)
+            if flag != self.valve_open:
+                self.valve_open = flag
+                self._valve_since = t
+                self._events.append(('valve', t, flag))
+
+    def start_shear(self, t):
+        with self._lock:
+            t = self._now(t)
+            if self._shear_start is None:
+                self._shear_start = t
+                self._shear_close_reported = False
+
+    def set_sealed(self, flag, t):
+        with self._lock:
+            t = self._now(t)
+            flag = bool(flag)
+            if flag != self.sealed:
+                self.sealed = flag
+                self._sealed_since = t
+
+    def pop_events(self, t):
+        """Events since the last call: ('valve', t, open) and ('shear_cut', t_close)."""
+        with self._lock:
+            self._now(t)
+            events, self._events = self._events, []
+            return events
+
+    # --- axes ----------------------------------------------------------------------------
+    def axis_index(self, axis):
+        if isinstance(axis, str) and not axis.isdigit():
+            if axis not in self.names:
+                raise ValueError('unknown axis %r (axes: %s)' % (axis, ', '.join(self.names)))
+            return self.names.index(axis)
+        index = int(axis)
+        if not 0 <= index < len(self.axes):
+            raise ValueError('axis index %d out of range 0..%d' % (index, len(self.axes) - 1))
+        return index
+
+    def inject_axis_fault(self, axis, code, t):
+        code = int(code)
+        if not 1 <= code <= 0xFFFF:
+            raise ValueError('fault code must be 1..65535')
+        with self._lock:
+            t = self._now(t)
+            self.axes[self.axis_index(axis)].raise_fault(code, t)
+
+    def joint_states(self, t):
+        """(positions, velocities) of all axes in SI units, controller order."""
+        with self._lock:
+            t = self._now(t)
+            states = [a.state(t) for a in self.axes]
+        return [s[0] for s in states], [s[1] for s in states]
+
+    def any_moving(self, t):
+        with self._lock:
+            t = self._now(t)
+            return any(a.moving(t) for a in self.axes)
+
+    # --- Modbus data model ---------------------------------------------------------------
+    @staticmethod
+    def writable_holding(address, count):
+        """Only the system control register and the axis command area accept writes."""
+        end = address + count
+        if address == cm.REG_SYSTEM_CONTROL and count == 1:
+            return True
+        return cm.COMMAND_BASE <= address and end <= cm.COMMAND_BASE + cm.COMMAND_STRIDE * 8
+
+    def valid(self, table, address, count, write=False):
+        """table: 'h' holding registers, 'c' coils, 'd' discrete inputs, 'i' input registers."""
+        if count < 1 or address < 0:
+            return False
+        end = address + count
+        if table == 'h':
+            if end > cm.HOLDING_REGISTER_COUNT:
+                return False
+            return self.writable_holding(address, count) if write else True
+        if table == 'c':
+            return end <= cm.COIL_COUNT
+        if table == 'd':
+            return not write and end <= cm.DI_COUNT
+        return False
+
+    def _holding(self, address, t):
+        n_axes = len(self.axes)
+        if address < cm.SYSTEM_BLOCK_SIZE:
+            return {
+                cm.REG_IDENTITY: cm.IDENTITY,
+                cm.REG_MAP_VERSION: cm.MAP_VERSION,
+                cm.REG_AXIS_COUNT: n_axes,
+                cm.REG_HEARTBEAT: int(math.floor(t * 100.0)) & 0xFFFF,
+                cm.REG_IO_STATUS: self._io_status(t),
+                cm.REG_SHEAR_COUNT: self.shear_count,
+            }.get(address, 0)
+        if cm.FEEDBACK_BASE <= address < cm.FEEDBACK_BASE + cm.FEEDBACK_STRIDE * n_axes:
+            axis, offset = divmod(address - cm.FEEDBACK_BASE, cm.FEEDBACK_STRIDE)
+            return self.axes[axis].feedback(t)[offset]
+        if cm.COMMAND_BASE <= address < cm.COMMAND_BASE + cm.COMMAND_STRIDE * n_axes:
+            axis, offset = divmod(address - cm.COMMAND_BASE, cm.COMMAND_STRIDE)
+            return self.axes[axis].command[offset]
+        return 0
+
+    def _io_status(self, t):
+        return ((self.valve_open << cm.IO_SUCTION_VALVE)
+                | (self.vacuum_ok(t) << cm.IO_VACUUM_OK)
+                | (self.shear_busy(t) << cm.IO_SHEAR_BUSY)
+                | (self.shear_closed(t) << cm.IO_SHEAR_CLOSED))
+
+    def read_holding(self, address, count, t):
+        with self._lock:
+            t = self._now(t)
+            feedback_cache = {}
+            out = []
+            feedback_end = cm.FEEDBACK_BASE + cm.FEEDBACK_STRIDE * len(self.axes)
+            for addr in range(address, address + count):
+                if cm.FEEDBACK_BASE <= addr < feedback_end:
+                    axis, offset = divmod(addr - cm.FEEDBACK_BASE, cm.FEEDBACK_STRIDE)
+                    if axis not in feedback_cache:       # one consistent sample per axis
+                        feedback_cache[axis] = self.axes[axis].feedback(t)
+                    out.append(feedback_cache[axis][offset])
+                else:
+                    out.append(self._holding(addr, t))
+            return out
+
+    def write_holding(self, address, values, t):
+        with self._lock:
+            t = self._now(t)
+            for i, value in enumerate(values):
+                addr = address + i
+                value = int(value) & 0xFFFF
+                if addr == cm.REG_SYSTEM_CONTROL:
+                    self._system_control(value, t)
+                elif cm.COMMAND_BASE <= addr < cm.COMMAND_BASE + cm.COMMAND_STRIDE * len(self.axes):
+                    axis, offset = divmod(addr - cm.COMMAND_BASE, cm.COMMAND_STRIDE)
+                    self.axes[axis].write_command(offset, value, t)
+
+    def _system_control(self, value, t):
+        for axis in self.axes:
+            if value & (1 << cm.SYS_CLEAR_FAULTS):
+                axis.fault = cm.FAULT_NONE
+            if value & (1 << cm.SYS_HALT_ALL):
+                axis.halt(t)
+            if value & (1 << cm.SYS_DISABLE_ALL):
+                axis.set_enable(False, t)
+                axis.command[cm.CMD_CONTROL_WORD] = 0
+            if value & (1 << cm.SYS_ENABLE_ALL):
+                axis.set_enable(True, t)
+                axis.command[cm.CMD_CONTROL_WORD] = 1 << cm.CW_ENABLE
+
+    def read_coils(self, address, count, t):
+        with self._lock:
+            t = self._now(t)
+            coils = [0] * cm.COIL_COUNT
+            coils[cm.COIL_SUCTION_VALVE] = int(self.valve_open)
+            coils[cm.COIL_SHEAR] = int(self._shear_start is not None)
+            return coils[address:address + count]
+
+    def write_coils(self, address, values, t):
+        with self._lock:
+            for i, value in enumerate(values):
+                addr = address + i
+                if addr == cm.COIL_SUCTION_VALVE:
+                    self.set_valve(bool(value), t)
+                elif addr == cm.COIL_SHEAR and value:
+                    self.start_shear(t)
+
+    def read_discrete(self, address, count, t):
+        with self._lock:
+            t = self._now(t)
+            inputs = [0] * cm.DI_COUNT
+            inputs[cm.DI_VACUUM_OK] = int(self.vacuum_ok(t))
+            inputs[cm.DI_SHEAR_CLOSED] = int(self.shear_closed(t))
+            inputs[cm.DI_SUCTION_VALVE] = int(self.valve_open)
+            return inputs[address:address + count]

@@ -1,0 +1,113 @@
+"""ROS glue of the simulated motion controller (node ``sim_controller``, run in namespace ``sim``).
+
+Serves the controller model over Modbus TCP and publishes its ground truth for the rest of the
+simulator. All timing is ROS time, so the node follows /clock when /use_sim_time is true.
+
+Publications (relative; the node runs in namespace ``sim``):
+  joint_states (sensor_msgs/JointState)  URDF joint names, every ``~publish_rate`` (ROS time)
+  suction_valve (std_msgs/Bool, latched) valve state on every change
+  shear_cut (std_msgs/Header)            one per shear closure, stamp = closing time
+Subscriptions:
+  suction_sealed (std_msgs/Bool)         true while the suction cup sits on a fruit
+Services:
+  ~inject_fault (std_srvs/Trigger)       apply the fault string in param ``~fault``
+  ~set_server_enabled (std_srvs/SetBool) open/close the Modbus TCP listener
+Parameters:
+  ~host (127.0.0.1, loopback only), ~port (5020), ~unit_id (1),
+  ~robot_config (path of robot.yaml; default visualization_pkg/config/robot.yaml),
+  ~initial_positions ({axis: value}, SI units), ~publish_rate (60 Hz), ~shear_hold (0.2 s),
+  ~fault ("" = normal; see controller_server.FAULT_SYNTAX), applied at start-up too.
+"""
+
+import os
+import threading
+
+import rospkg
+import rospy
+import yaml
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool, Header
+from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
+
+from harvest_sim.controller_model import ControllerModel, axes_from_robot_config
+from harvest_sim.controller_server import ControllerServer, apply_faults, parse_fault_spec
+
+
+def default_robot_config():
+    return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+
+
+class SimControllerNode(object):
+    """Owns the model, the Modbus server, the publishers and the fault services."""
+
+    def __init__(self):
+        path = rospy.get_param('~robot_config', '') or default_robot_config()
+        with open(path) as stream:
+            robot = yaml.safe_load(stream)
+        motion = robot['motion']
+        configs = axes_from_robot_config(robot, rospy.get_param('~initial_positions', {}))
+        self.model = ControllerModel(configs, motion['suction_build_up'], motion['shear_stroke'],
+                                     rospy.get_param('~shear_hold', 0.2), rospy.get_time())
+        self.joint_names = [c.name + '_joint' for c in configs]
+        self._lock = threading.Lock()
+        self.server = ControllerServer(self.model, rospy.get_time,
+                                       rospy.get_param('~host', '127.0.0.1'),
+                                       rospy.get_param('~port', 5020),
+                                       rospy.get_param('~unit_id', 1))
+        self.joint_pub = rospy.Publisher('joint_states', JointState, queue_size=10)
+        self.valve_pub = rospy.Publisher('suction_valve', Bool, queue_size=10, latch=True)
+        self.cut_pub = rospy.Publisher('shear_cut', Header, queue_size=10)
+        self.valve_pub.publish(Bool(data=False))
+        rospy.Subscriber('suction_sealed', Bool, self._on_sealed, queue_size=10)
+        self.server.start()
+        rospy.loginfo('simulated motion controller on %s:%d unit %d (%d axes)', self.server.host,
+                      self.server.port, self.server.unit, len(configs))
+        startup_fault = rospy.get_param('~fault', '')
+        if startup_fault:
+            rospy.logwarn('start-up fault: %s', self._apply(startup_fault))
+        rospy.Service('~inject_fault', Trigger, self._on_inject)
+        rospy.Service('~set_server_enabled', SetBool, self._on_server_enabled)
+        rate = float(rospy.get_param('~publish_rate', 60.0))
+        self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._on_timer)
+        rospy.on_shutdown(self.shutdown)
+
+    def _apply(self, text):
+        with self._lock:
+            return apply_faults(parse_fault_spec(text), self.model, self.server, rospy.get_time())
+
+    def _on_inject(self, _req):
+        text = rospy.get_param('~fault', '')
+        try:
+            summary = self._apply(text)
+        except (ValueError, RuntimeError, OSError) as exc:
+            return TriggerResponse(success=False, message='fault %r not applied: %s' % (text, exc))
+        rospy.logwarn('injected fault %r: %s', text, summary)
+        return TriggerResponse(success=True, message=summary)
+
+    def _on_server_enabled(self, req):
+        with self._lock:
+            ok = self.server.set_listening(req.data)
+        state = 'listening' if req.data else 'closed'
+        rospy.logwarn('Modbus server %s', state if ok else 'failed to listen')
+        return SetBoolResponse(success=ok, message=state if ok else 'cannot listen')
+
+    def _on_sealed(self, msg):
+        self.model.set_sealed(msg.data, rospy.get_time())
+
+    def _on_timer(self, _event):
+        now = rospy.get_rostime()
+        t = now.to_sec()
+        for event in self.model.pop_events(t):
+            if event[0] == 'valve':
+                self.valve_pub.publish(Bool(data=event[2]))
+            elif event[0] == 'shear_cut':
+                self.cut_pub.publish(Header(stamp=rospy.Time.from_sec(event[1]),
+                                            frame_id='left_shear_tcp'))
+        positions, velocities = self.model.joint_states(t)
+        msg = JointState(name=self.joint_names, position=positions, velocity=velocities)
+        msg.header.stamp = now
+        self.joint_pub.publish(msg)
+
+    def shutdown(self):
+        self._timer.shutdown()
+        self.server.stop()

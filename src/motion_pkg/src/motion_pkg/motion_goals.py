@@ -1,0 +1,289 @@
+"""Goal validation and progress monitoring of the motion action servers (pure logic, no ROS).
+
+Monitors are fed every controller poll (:class:`motion_pkg.modbus_map.ControllerState`) and
+return an :class:`Outcome` once their goal is finished. They ignore polls taken before their
+commands were written (``first_poll``), so a stale sample can never end a goal.
+
+MoveRobot ``succeed`` codes (result of ``move_robot``):
+  1 success; 0 failure (other); -1 invalid goal (NaN, wrong length, beyond limits);
+  -2 drive fault; -3 timeout; -4 lost connection to the controller; -5 halted or preempted;
+  -6 the controller refused the command (Modbus exception).
+"""
+
+import math
+
+SUCCESS = 1
+FAILURE = 0
+INVALID_GOAL = -1
+DRIVE_FAULT = -2
+TIMEOUT = -3
+CONNECTION_LOST = -4
+HALTED = -5
+REFUSED = -6
+
+ARM_JOINTS = ('lift', 'boom', 'forearm')
+LINEAR_KINDS = ('cart', 'lift')
+
+
+class GoalError(ValueError):
+    """A goal that cannot be executed; the text says why."""
+
+
+class AxisLimits(object):
+    """Position range and default speed / acceleration of one axis (SI units)."""
+
+    __slots__ = ('name', 'minimum', 'maximum', 'speed', 'acceleration', 'linear')
+
+    def __init__(self, name, minimum, maximum, speed, acceleration, linear):
+        self.name = name
+        self.minimum = float(minimum)
+        self.maximum = float(maximum)
+        self.speed = float(speed)
+        self.acceleration = float(acceleration)
+        self.linear = linear
+
+    def unit(self, value):
+        """Readable value with unit (mm or deg)."""
+        return '%.1f mm' % (value * 1000.0) if self.linear else '%.2f deg' % math.degrees(value)
+
+
+def limits_from_robot_config(robot_yaml):
+    """{axis name: AxisLimits} from the parsed robot.yaml."""
+    robot = robot_yaml['robot']
+    motion = robot_yaml['motion']
+    limits = {}
+    for name in robot_yaml['axes']:
+        if name == 'cart':
+            kind, lo, hi = 'cart', robot['track']['min'], robot['track']['max']
+        elif name == 'waist':
+            kind, lo, hi = 'waist', robot['waist']['min'], robot['waist']['max']
+        else:
+            kind = name.split('_', 1)[1]
+            lo, hi = robot['joint_limits'][kind]['min'], robot['joint_limits'][kind]['max']
+        limits[name] = AxisLimits(name, lo, hi, motion['speed'][kind],
+                                  motion['acceleration'][kind], kind in LINEAR_KINDS)
+    return limits
+
+
+def arm_axes(left):
+    """Axis names of one arm: arm False = right (suction), True = left (cutting)."""
+    side = 'left' if left else 'right'
+    return ['%s_%s' % (side, j) for j in ARM_JOINTS]
+
+
+def _finite(values):
+    return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
+
+
+def validate_arm_goal(positions, velocities, left, limits):
+    """Check a MoveRobot goal; returns (axis names, targets, speeds) or raises GoalError.
+
+    positions: [lift, boom, forearm]; velocities: empty or 3 per-joint speed limits (>= 0,
+    0 = default speed; values above the default are reduced to it).
+    """
+    names = arm_axes(left)
+    arm = 'left' if left else 'right'
+    positions = list(positions)
+    velocities = list(velocities)
+    if len(positions) != 3:
+        raise GoalError('target_joint.positions needs 3 values [lift, boom, forearm] for the %s '
+                        'arm, got %d' % (arm, len(positions)))
+    if not _finite(positions):
+        raise GoalError('target_joint.positions contains NaN or infinity: %s' % positions)
+    if velocities and len(velocities) != 3:
+        raise GoalError('target_joint.velocities must be empty or hold 3 speed limits, got %d'
+                        % len(velocities))
+    if not _finite(velocities) or any(v < 0.0 for v in velocities):
+        raise GoalError('target_joint.velocities must be finite and >= 0: %s' % velocities)
+    speeds = []
+    for i, name in enumerate(names):
+        lim = limits[name]
+        check_range(lim, positions[i])
+        speed = lim.speed
+        if velocities and velocities[i] > 0.0:
+            speed = min(speed, velocities[i])
+        speeds.append(speed)
+    return names, positions, speeds
+
+
+def check_range(lim, value):
+    if not lim.minimum <= value <= lim.maximum:
+        raise GoalError('%s target %s is beyond the joint limits [%s, %s]' % (
+            lim.name, lim.unit(value), lim.unit(lim.minimum), lim.unit(lim.maximum)))
+
+
+def move_duration(distance, speed, acceleration):
+    """Rest-to-rest trapezoid (or triangle) duration over |distance|."""
+    dist = abs(distance)
+    if dist == 0.0:
+        return 0.0
+    if dist >= speed * speed / acceleration:
+        return dist / speed + speed / acceleration
+    return 2.0 * math.sqrt(dist / acceleration)
+
+
+def _plain(value):
+    return '%.4g' % value
+
+
+class Outcome(object):
+    """How a goal ended: ``success``, the result ``code`` and an explanatory ``text``."""
+
+    __slots__ = ('success', 'code', 'text')
+
+    def __init__(self, success, code, text):
+        self.success = success
+        self.code = code
+        self.text = text
+
+    def __repr__(self):
+        return 'Outcome(%r, %r, %r)' % (self.success, self.code, self.text)
+
+
+class Monitor(object):
+    """Base: skips stale polls, enforces the deadline, reports drive faults."""
+
+    def __init__(self, first_poll, deadline):
+        self.first_poll = first_poll
+        self.deadline = deadline
+        self.percent = 0
+
+    def update(self, poll_index, state, now):
+        """Outcome when finished, else None."""
+        if now > self.deadline:
+            return self.timed_out()
+        if poll_index < self.first_poll:
+            return None
+        return self.check(state)
+
+    def check(self, state):
+        raise NotImplementedError
+
+    def timed_out(self):
+        return Outcome(False, TIMEOUT, 'timed out')
+
+
+class AxesMoveMonitor(Monitor):
+    """Several axes moving to targets (a MoveRobot arm move or the MoveBase cart move)."""
+
+    def __init__(self, indices, names, targets, starts, tolerances, first_poll, deadline,
+                 fault_text, units=None):
+        super(AxesMoveMonitor, self).__init__(first_poll, deadline)
+        self.units = list(units) if units else [_plain] * len(list(names))
+        self.indices = list(indices)
+        self.names = list(names)
+        self.targets = list(targets)
+        self.starts = list(starts)
+        self.tolerances = list(tolerances)
+        self.fault_text = fault_text
+        self.positions = list(starts)
+
+    def progress(self, positions):
+        fractions = []
+        for start, target, pos, tol in zip(self.starts, self.targets, positions,
+                                           self.tolerances):
+            span = abs(target - start)
+            if span <= tol:
+                fractions.append(1.0)
+            else:
+                fractions.append(min(1.0, max(0.0, 1.0 - abs(target - pos) / span)))
+        return int(math.floor(100.0 * min(fractions))) if fractions else 100
+
+    def check(self, state):
+        axes = [state.axes[i] for i in self.indices]
+        self.positions = [a.position for a in axes]
+        for name, axis in zip(self.names, axes):
+            if axis.fault:
+                return Outcome(False, DRIVE_FAULT, 'drive fault on %s: %s (code %d)' % (
+                    name, self.fault_text(axis.fault_code), axis.fault_code))
+        done = True
+        for name, axis, target, tol, unit in zip(self.names, axes, self.targets,
+                                                 self.tolerances, self.units):
+            error = abs(axis.position - target)
+            if axis.moving:
+                done = False
+            elif error > tol:
+                why = 'disabled' if not axis.enabled else 'halted'
+                return Outcome(False, HALTED, '%s stopped %s from its target (%s)'
+                               % (name, unit(error), why))
+        self.percent = 100 if done else min(99, self.progress(self.positions))
+        if done:
+            return Outcome(True, SUCCESS, 'target reached')
+        return None
+
+    def timed_out(self):
+        return Outcome(False, TIMEOUT, 'move not finished before its deadline (axes %s)'
+                       % ', '.join(self.names))
+
+
+class SuctionOnMonitor(Monitor):
+    """Valve opened: wait for the vacuum sensor."""
+
+    def __init__(self, first_poll, deadline, timeout):
+        super(SuctionOnMonitor, self).__init__(first_poll, deadline)
+        self.timeout = timeout
+        self.state_text = 'waiting for vacuum'
+
+    def check(self, state):
+        if state.vacuum_ok:
+            return Outcome(True, SUCCESS, 'vacuum ok')
+        return None
+
+    def timed_out(self):
+        return Outcome(False, TIMEOUT, 'no vacuum within %.2f s (is the cup on a fruit?)'
+                       % self.timeout)
+
+
+class SuctionOffMonitor(Monitor):
+    """Valve closed: wait until the controller reports it closed."""
+
+    state_text = 'closing valve'
+
+    def check(self, state):
+        if not state.suction_valve:
+            return Outcome(True, SUCCESS, 'valve closed')
+        return None
+
+    def timed_out(self):
+        return Outcome(False, TIMEOUT, 'suction valve still reported open')
+
+
+class ShearMonitor(Monitor):
+    """Shear stroke started: wait for the closure (stroke counter advances)."""
+
+    state_text = 'cutting'
+
+    def __init__(self, first_poll, deadline, count_before, timeout):
+        super(ShearMonitor, self).__init__(first_poll, deadline)
+        self.count_before = count_before
+        self.timeout = timeout
+
+    def check(self, state):
+        if state.shear_count != self.count_before:
+            return Outcome(True, SUCCESS, 'shear closed')
+        return None
+
+    def timed_out(self):
+        return Outcome(False, TIMEOUT, 'shear-closed sensor not seen within %.2f s'
+                       % self.timeout)
+
+
+def status_summary(connected, last_error, state, regmap, endpoint, poll_error=''):
+    """(level, message) of the motion system: 0 OK, 1 WARN, 2 ERROR (DiagnosticStatus levels).
+
+    OK needs a connection, valid polls and every axis enabled without fault.
+    """
+    if connected and poll_error:
+        return 2, 'motion controller at %s answers with errors: %s' % (endpoint, poll_error)
+    if not connected or state is None:
+        return 2, 'no connection to the motion controller at %s: %s' % (
+            endpoint, last_error or 'not connected')
+    faults = ['%s: %s (code %d)' % (regmap.axes[i].name, regmap.fault_text(a.fault_code),
+                                    a.fault_code)
+              for i, a in enumerate(state.axes) if a.fault]
+    if faults:
+        return 2, 'drive fault: ' + '; '.join(faults)
+    disabled = [regmap.axes[i].name for i, a in enumerate(state.axes) if not a.enabled]
+    if disabled:
+        return 1, 'axes not enabled: ' + ', '.join(disabled)
+    return 0, 'connected, all %d axes enabled' % len(state.axes)

@@ -1,0 +1,514 @@
+"""ROS node ``motion_server``: owns the Modbus TCP connection to the multi-axis controller.
+
+A poll thread (``~poll_rate``, ROS time) reads the controller, publishes ``joint_states``,
+advances the goal monitors, keeps ``motion_status`` and the diagnostics up to date and
+reconnects with back-off after a lost connection. Action goals are handled in goal callbacks
+(commands are written at once; the poll thread finishes the goal), so a goal costs no
+actionlib polling latency.
+
+Publications:  joint_states (sensor_msgs/JointState), motion_status (diagnostic_msgs/
+               DiagnosticStatus, latched, on change), /diagnostics (diagnostic_updater)
+Services:      halt_all, enable_all (std_srvs/Trigger)
+Actions:       move_robot (harvest_msgs/MoveRobot), move_base (harvest_msgs/MoveBase),
+               end_effector (harvest_msgs/EndEffector)
+Parameters:    see config/motion_server.yaml (all private).
+"""
+
+import functools
+import math
+import os
+import threading
+
+import actionlib
+import diagnostic_updater
+import rospkg
+import rospy
+import yaml
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from harvest_msgs.msg import (EndEffectorAction, EndEffectorFeedback, EndEffectorGoal,
+                              EndEffectorResult, MoveBaseAction, MoveBaseFeedback,
+                              MoveBaseResult, MoveRobotAction, MoveRobotFeedback,
+                              MoveRobotResult)
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger, TriggerResponse
+
+from motion_pkg import motion_goals as mg
+from motion_pkg.modbus_driver import ConnectionLost, ControllerRefused, DriverError, ModbusDriver
+from motion_pkg.modbus_map import RegisterMap
+
+POLL_RATE_TOLERANCE = 0.2          # diagnostics: poll rate within +-20 % of ~poll_rate is OK
+POLL_RATE_WINDOW = 10              # diagnostics: averaging window (updates)
+LEVEL_NAMES = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
+
+
+def _package_file(package, *parts):
+    return os.path.join(rospkg.RosPack().get_path(package), *parts)
+
+
+class _Active(object):
+    """One running goal: its server, goal handle, monitor and how to finish it."""
+
+    def __init__(self, key, handle, monitor, finish, feedback):
+        self.key = key
+        self.handle = handle
+        self.monitor = monitor
+        self.finish = finish        # callable(handle, outcome, state)
+        self.feedback = feedback    # callable(handle, monitor, state) or None
+
+
+class MotionServer(object):
+    """Modbus driver + action servers + status of the motion system."""
+
+    def __init__(self):
+        self.regmap = RegisterMap.from_file(
+            rospy.get_param('~register_map', '') or
+            _package_file('motion_pkg', 'config', 'register_map.yaml'))
+        with open(rospy.get_param('~robot_config', '') or
+                  _package_file('visualization_pkg', 'config', 'robot.yaml')) as stream:
+            self.limits = mg.limits_from_robot_config(yaml.safe_load(stream))
+        missing = [a for a in self.regmap.axis_names if a not in self.limits]
+        if missing:
+            raise ValueError('axes %s of the register map are not in robot.yaml' % missing)
+        self.driver = ModbusDriver(
+            self.regmap, rospy.get_param('~host', '127.0.0.1'), rospy.get_param('~port', 502),
+            rospy.get_param('~unit_id', 1), rospy.get_param('~response_timeout', 0.25),
+            rospy.get_param('~reconnect_backoff_min', 0.1),
+            rospy.get_param('~reconnect_backoff_max', 2.0))
+        self.endpoint = '%s:%d' % (self.driver.host, self.driver.port)
+        self.poll_rate = float(rospy.get_param('~poll_rate', 60.0))
+        self.stale_timeout = float(rospy.get_param('~stale_timeout', 0.5))
+        self.auto_enable = bool(rospy.get_param('~auto_enable', True))
+        self.tol_linear = float(rospy.get_param('~tolerance_linear', 0.001))
+        self.tol_angular = float(rospy.get_param('~tolerance_angular', math.radians(0.2)))
+        self.timeout_factor = float(rospy.get_param('~move_timeout_factor', 1.5))
+        self.timeout_margin = float(rospy.get_param('~move_timeout_margin', 2.0))
+        self.suction_timeout = float(rospy.get_param('~suction_timeout', 2.0))
+        self.shear_timeout = float(rospy.get_param('~shear_timeout', 2.0))
+        self.points_param = rospy.get_param('~picking_points_param', '/track/picking_points')
+
+        self._lock = threading.Lock()          # guards _active, _state, _poll_index
+        self._poll_lock = threading.Lock()     # one poll at a time (poll thread, goal callbacks)
+        self._active = {}
+        self._state = None
+        self._poll_index = 0
+        self._last_good = None
+        self._poll_error = ''
+        self._last_status = None
+        self._status_lock = threading.Lock()
+        self._stop = threading.Event()
+
+        self.joint_pub = rospy.Publisher('joint_states', JointState, queue_size=10)
+        self.status_pub = rospy.Publisher('motion_status', DiagnosticStatus, queue_size=1,
+                                          latch=True)
+        self._setup_diagnostics()
+        self._publish_status()
+        rospy.Service('halt_all', Trigger, self._on_halt_all)
+        rospy.Service('enable_all', Trigger, self._on_enable_all)
+        self.move_robot = self._action('move_robot', MoveRobotAction, self._goal_move_robot)
+        self.move_base = self._action('move_base', MoveBaseAction, self._goal_move_base)
+        self.end_effector = self._action('end_effector', EndEffectorAction,
+                                         self._goal_end_effector)
+        self._thread = threading.Thread(target=self._poll_loop, name='motion_poll')
+        self._thread.daemon = True
+        self._thread.start()
+        rospy.on_shutdown(self.shutdown)
+
+    # --- set-up --------------------------------------------------------------------------
+    def _action(self, name, spec, goal_cb):
+        server = actionlib.SimpleActionServer(name, spec, auto_start=False)
+        server.register_goal_callback(goal_cb)
+        server.register_preempt_callback(lambda: self._on_preempt(name, server))
+        server.start()
+        return server
+
+    def _setup_diagnostics(self):
+        self.updater = diagnostic_updater.Updater()
+        self.updater.setHardwareID('modbus %s unit %d' % (self.endpoint, self.driver.unit))
+        self.updater.add('Modbus connection', self._diag_connection)
+        self.poll_freq = diagnostic_updater.FrequencyStatus(
+            diagnostic_updater.FrequencyStatusParam(
+                {'min': self.poll_rate, 'max': self.poll_rate}, POLL_RATE_TOLERANCE,
+                POLL_RATE_WINDOW))
+        self.updater.add(self.poll_freq)
+        for info in self.regmap.axes:
+            self.updater.add('Axis %s' % info.name,
+                             lambda stat, index=info.index: self._diag_axis(stat, index))
+
+    def shutdown(self):
+        self._stop.set()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(2.0)
+        self.driver.close()
+
+    # --- poll loop -----------------------------------------------------------------------
+    def _poll_loop(self):
+        rate = rospy.Rate(self.poll_rate)
+        while not rospy.is_shutdown() and not self._stop.is_set():
+            self._poll_once()
+            self.updater.update()
+            try:
+                rate.sleep()
+            except rospy.ROSInterruptException:
+                break
+            except rospy.ROSTimeMovedBackwardsException:
+                rate = rospy.Rate(self.poll_rate)
+
+    def _poll_once(self):
+        """One poll. Goal handles are only touched after the poll lock is released: a goal
+        callback holds actionlib's lock while it waits for the poll lock."""
+        with self._poll_lock:
+            actions = self._poll_locked()
+        for action in actions:
+            action()
+        self._publish_status()
+
+    def _poll_locked(self):
+        """Poll the controller; returns the goal feedback / finish calls to make."""
+        now = rospy.get_time()
+        if not self.driver.connected:
+            if not self.driver.ensure_connected(now):
+                return []
+            self._on_connected()
+        try:
+            state = self.driver.poll()
+        except ConnectionLost as exc:
+            rospy.logerr('%s', exc)
+            return self._abort_actions(mg.CONNECTION_LOST, str(exc))
+        except ControllerRefused as exc:
+            self._poll_error = str(exc)
+            rospy.logwarn_throttle(2.0, '%s' % exc)
+            if self._last_good is None or now - self._last_good > self.stale_timeout:
+                with self._lock:
+                    self._state = None
+                return self._abort_actions(mg.REFUSED, 'no valid data from the motion '
+                                           'controller for %.1f s: %s'
+                                           % (self.stale_timeout, exc))
+            return []
+        self._last_good = now
+        self._poll_error = ''
+        self.poll_freq.tick()
+        with self._lock:
+            self._poll_index += 1
+            index = self._poll_index
+            self._state = state
+            active = list(self._active.values())
+        msg = JointState(name=self.regmap.joint_names, position=state.positions,
+                         velocity=state.velocities)
+        msg.header.stamp = rospy.Time.from_sec(now)
+        self.joint_pub.publish(msg)
+        actions = []
+        for entry in active:
+            outcome = entry.monitor.update(index, state, now)
+            if outcome is None:
+                if entry.feedback is not None:
+                    actions.append(functools.partial(entry.feedback, entry.handle,
+                                                     entry.monitor, state))
+            elif self._release(entry):
+                actions.append(functools.partial(entry.finish, entry.handle, outcome, state))
+        return actions
+
+    def _on_connected(self):
+        rospy.loginfo('connected to the motion controller at %s (connection %d)',
+                      self.endpoint, self.driver.connects)
+        try:
+            self.driver.halt_all()            # nothing runs that no goal watches
+            if self.auto_enable:
+                self.driver.system('enable_all')
+        except DriverError as exc:
+            rospy.logwarn('start-up commands failed: %s', exc)
+
+    # --- goal bookkeeping ----------------------------------------------------------------
+    def _register(self, entry):
+        """Make the goal active and poll at once: quick goals end without waiting a period."""
+        with self._lock:
+            self._active[entry.key] = entry
+        self._poll_once()
+
+    def _release(self, entry):
+        """Remove the entry if it is still the active one; True when removed."""
+        with self._lock:
+            if self._active.get(entry.key) is entry:
+                del self._active[entry.key]
+                return True
+            return False
+
+    def _take(self, key):
+        with self._lock:
+            return self._active.pop(key, None)
+
+    def _abort_actions(self, code, text, keys=None):
+        """Deactivate goals (all, or those of the given servers); returns their abort calls."""
+        with self._lock:
+            keys = list(self._active) if keys is None else keys
+            entries = [self._active.pop(k) for k in keys if k in self._active]
+            state = self._state
+        return [functools.partial(e.finish, e.handle, mg.Outcome(False, code, text), state)
+                for e in entries]
+
+    def _snapshot(self):
+        with self._lock:
+            return self._poll_index, self._state
+
+    def _on_preempt(self, key, server):
+        if server.is_new_goal_available():
+            return                              # the goal callback replaces the goal
+        entry = self._take(key)
+        if entry is None:
+            return
+        text = 'preempted'
+        if key in ('move_robot', 'move_base'):
+            try:
+                self.driver.halt(entry.monitor.indices)
+                text = 'preempted: axes %s halted' % ', '.join(entry.monitor.names)
+            except DriverError as exc:
+                text = 'preempted, but halting failed: %s' % exc
+        entry.finish(entry.handle, mg.Outcome(False, mg.HALTED, text), self._state,
+                     preempted=True)
+
+    # --- move_robot ----------------------------------------------------------------------
+    def _goal_move_robot(self):
+        server = self.move_robot
+        goal = server.accept_new_goal()
+        handle = server.current_goal
+        previous = self._take('move_robot')
+        try:
+            names, targets, speeds = mg.validate_arm_goal(
+                goal.target_joint.positions, goal.target_joint.velocities, goal.arm, self.limits)
+            entry = self._start_axes_move('move_robot', handle, names, targets, speeds,
+                                          self._finish_move_robot, self._feedback_move_robot)
+        except mg.GoalError as exc:
+            self._finish_move_robot(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)), None)
+            return
+        except DriverError as exc:
+            code = mg.CONNECTION_LOST if isinstance(exc, ConnectionLost) else mg.REFUSED
+            self._finish_move_robot(handle, mg.Outcome(False, code, str(exc)), None)
+            return
+        if previous is not None:
+            rospy.logdebug('move_robot goal replaced a running one')
+        self._register(entry)
+
+    def _start_axes_move(self, key, handle, names, targets, speeds, finish, feedback):
+        index, state = self._snapshot()
+        if state is None or not self.driver.connected:
+            raise ConnectionLost('no connection to the motion controller at %s: %s'
+                                 % (self.endpoint, self.driver.last_error or 'not connected'))
+        indices = [self.regmap.axis(n).index for n in names]
+        tolerances, durations, units = [], [], []
+        for n, i, target, speed in zip(names, indices, targets, speeds):
+            lim = self.limits[n]
+            tolerances.append(self.tol_linear if lim.linear else self.tol_angular)
+            durations.append(mg.move_duration(target - state.axes[i].position, speed,
+                                              lim.acceleration))
+            units.append(lim.unit)
+        for i, target, speed, n in zip(indices, targets, speeds, names):
+            self.driver.move(i, target, speed, self.limits[n].acceleration)
+        first_poll = self._snapshot()[0] + 1
+        deadline = rospy.get_time() + max(durations) * self.timeout_factor + self.timeout_margin
+        monitor = mg.AxesMoveMonitor(indices, names, targets,
+                                     [state.axes[i].position for i in indices], tolerances,
+                                     first_poll, deadline, self.regmap.fault_text, units)
+        return _Active(key, handle, monitor, finish, feedback)
+
+    def _feedback_move_robot(self, handle, monitor, _state):
+        if monitor.percent != getattr(monitor, 'sent', None):
+            monitor.sent = monitor.percent
+            handle.publish_feedback(MoveRobotFeedback(percent_complete=monitor.percent))
+
+    def _finish_move_robot(self, handle, outcome, _state, preempted=False):
+        result = MoveRobotResult(succeed=outcome.code)
+        if outcome.success:
+            handle.publish_feedback(MoveRobotFeedback(percent_complete=100))
+            handle.set_succeeded(result, outcome.text)
+        elif preempted:
+            handle.set_canceled(result, outcome.text)
+        else:
+            rospy.logwarn('move_robot aborted: %s', outcome.text)
+            handle.set_aborted(result, outcome.text)
+
+    # --- move_base -----------------------------------------------------------------------
+    def picking_points(self):
+        if rospy.has_param('~picking_points'):
+            return list(rospy.get_param('~picking_points'))
+        return list(rospy.get_param(self.points_param, []))
+
+    def _goal_move_base(self):
+        server = self.move_base
+        goal = server.accept_new_goal()
+        handle = server.current_goal
+        self._take('move_base')
+        try:
+            points = self.picking_points()
+            if not points:
+                raise mg.GoalError('no picking points: set %s (or ~picking_points)'
+                                   % self.points_param)
+            if not 0 <= goal.picking_point < len(points):
+                raise mg.GoalError('picking point %d does not exist (%d points: 0..%d)'
+                                   % (goal.picking_point, len(points), len(points) - 1))
+            target = float(points[goal.picking_point])
+            if not math.isfinite(target):
+                raise mg.GoalError('picking point %d position is not finite' % goal.picking_point)
+            mg.check_range(self.limits['cart'], target)
+            entry = self._start_axes_move('move_base', handle, ['cart'], [target],
+                                          [self.limits['cart'].speed], self._finish_move_base,
+                                          self._feedback_move_base)
+        except (mg.GoalError, DriverError) as exc:
+            self._finish_move_base(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)),
+                                   self._state)
+            return
+        self._register(entry)
+
+    def _feedback_move_base(self, handle, monitor, _state):
+        if monitor.percent != getattr(monitor, 'sent', None):
+            monitor.sent = monitor.percent
+            handle.publish_feedback(MoveBaseFeedback(track_position=monitor.positions[0],
+                                                     percent_complete=monitor.percent))
+
+    def _finish_move_base(self, handle, outcome, state, preempted=False):
+        cart = self.regmap.axis('cart').index
+        position = state.axes[cart].position if state is not None else float('nan')
+        result = MoveBaseResult(success=outcome.success, track_position=position,
+                                message=outcome.text)
+        if outcome.success:
+            handle.set_succeeded(result, outcome.text)
+        elif preempted:
+            handle.set_canceled(result, outcome.text)
+        else:
+            rospy.logwarn('move_base aborted: %s', outcome.text)
+            handle.set_aborted(result, outcome.text)
+
+    # --- end_effector --------------------------------------------------------------------
+    def _goal_end_effector(self):
+        server = self.end_effector
+        goal = server.accept_new_goal()
+        handle = server.current_goal
+        self._take('end_effector')
+        try:
+            entry = self._start_end_effector(handle, goal)
+        except (mg.GoalError, DriverError) as exc:
+            self._finish_end_effector(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)),
+                                      self._state)
+            return
+        handle.publish_feedback(EndEffectorFeedback(state=entry.monitor.state_text))
+        self._register(entry)
+
+    def _start_end_effector(self, handle, goal):
+        if not math.isfinite(goal.timeout) or goal.timeout < 0.0:
+            raise mg.GoalError('timeout must be finite and >= 0, got %r' % goal.timeout)
+        _, state = self._snapshot()
+        if state is None or not self.driver.connected:
+            raise ConnectionLost('no connection to the motion controller at %s: %s'
+                                 % (self.endpoint, self.driver.last_error or 'not connected'))
+        now = rospy.get_time()
+        if goal.command == EndEffectorGoal.SUCTION_ON:
+            timeout = goal.timeout or self.suction_timeout
+            self.driver.set_suction(True)
+            monitor = mg.SuctionOnMonitor(self._snapshot()[0] + 1, now + timeout, timeout)
+        elif goal.command == EndEffectorGoal.SUCTION_OFF:
+            timeout = goal.timeout or self.suction_timeout
+            self.driver.set_suction(False)
+            monitor = mg.SuctionOffMonitor(self._snapshot()[0] + 1, now + timeout)
+        elif goal.command == EndEffectorGoal.SHEAR_CUT:
+            timeout = goal.timeout or self.shear_timeout
+            if state.shear_busy:
+                raise mg.GoalError('a shear stroke is still running')
+            self.driver.shear()
+            monitor = mg.ShearMonitor(self._snapshot()[0] + 1, now + timeout, state.shear_count,
+                                      timeout)
+        else:
+            raise mg.GoalError('unknown end effector command %d (1 SUCTION_ON, 2 SUCTION_OFF, '
+                               '3 SHEAR_CUT)' % goal.command)
+        return _Active('end_effector', handle, monitor, self._finish_end_effector, None)
+
+    def _finish_end_effector(self, handle, outcome, state, preempted=False):
+        if (not outcome.success and isinstance(handle.get_goal(), EndEffectorGoal) and
+                handle.get_goal().command == EndEffectorGoal.SUCTION_ON and
+                outcome.code == mg.TIMEOUT):
+            try:
+                self.driver.set_suction(False)      # no fruit held: do not keep blowing air
+                outcome.text += '; valve closed again'
+            except DriverError as exc:
+                outcome.text += '; closing the valve failed: %s' % exc
+        result = EndEffectorResult(success=outcome.success, message=outcome.text,
+                                   vacuum_ok=bool(state is not None and state.vacuum_ok))
+        if outcome.success:
+            handle.set_succeeded(result, outcome.text)
+        elif preempted:
+            handle.set_canceled(result, outcome.text)
+        else:
+            rospy.logwarn('end_effector aborted: %s', outcome.text)
+            handle.set_aborted(result, outcome.text)
+
+    # --- services ------------------------------------------------------------------------
+    def _on_halt_all(self, _req):
+        try:
+            self.driver.halt_all()
+        except DriverError as exc:
+            rospy.logerr('halt_all failed: %s', exc)
+            return TriggerResponse(success=False, message='halt_all failed: %s' % exc)
+        for action in self._abort_actions(mg.HALTED, 'halted by halt_all',
+                                          ['move_robot', 'move_base']):
+            action()
+        rospy.logwarn('halt_all: every axis halted')
+        return TriggerResponse(success=True, message='every axis halted')
+
+    def _on_enable_all(self, _req):
+        try:
+            self.driver.enable_all()
+        except DriverError as exc:
+            return TriggerResponse(success=False, message='enable_all failed: %s' % exc)
+        rospy.loginfo('enable_all: faults cleared, every axis enabled')
+        return TriggerResponse(success=True, message='faults cleared, every axis enabled')
+
+    # --- status and diagnostics ----------------------------------------------------------
+    def _summary(self):
+        return mg.status_summary(self.driver.connected, self.driver.last_error, self._state,
+                                 self.regmap, self.endpoint, self._poll_error)
+
+    def _publish_status(self):
+        with self._status_lock:
+            level, message = self._summary()
+            if (level, message) == self._last_status:
+                return
+            self._last_status = (level, message)
+            values = [KeyValue('endpoint', self.endpoint),
+                      KeyValue('connected', str(self.driver.connected)),
+                      KeyValue('connections', str(self.driver.connects))]
+            self.status_pub.publish(DiagnosticStatus(
+                level=level, name=rospy.get_name(), message=message,
+                hardware_id='modbus %s' % self.endpoint, values=values))
+        if level == 0:
+            rospy.loginfo('motion status OK: %s', message)
+        else:
+            rospy.logwarn('motion status %s: %s', LEVEL_NAMES[level], message)
+
+    def _diag_connection(self, stat):
+        level, message = self._summary()
+        stat.summary(2 if not self.driver.connected or self._poll_error else 0,
+                     'connected' if self.driver.connected and not self._poll_error else message)
+        stat.add('endpoint', self.endpoint)
+        stat.add('unit id', self.driver.unit)
+        stat.add('connections made', self.driver.connects)
+        stat.add('connections lost', self.driver.failures)
+        stat.add('last error', self.driver.last_error or self._poll_error or '-')
+        stat.add('system status', '%s: %s' % (LEVEL_NAMES[level], message))
+        return stat
+
+    def _diag_axis(self, stat, index):
+        state = self._state
+        if state is None or not self.driver.connected:
+            stat.summary(2, 'no data (not connected)')
+            return stat
+        axis = state.axes[index]
+        if axis.fault:
+            stat.summary(2, 'fault %d: %s' % (axis.fault_code,
+                                              self.regmap.fault_text(axis.fault_code)))
+        elif not axis.enabled:
+            stat.summary(1, 'disabled')
+        else:
+            stat.summary(0, 'moving' if axis.moving else 'enabled, at rest')
+        stat.add('position', '%.5f' % axis.position)
+        stat.add('velocity', '%.5f' % axis.velocity)
+        stat.add('status word', '0x%04x' % axis.status)
+        stat.add('fault code', axis.fault_code)
+        stat.add('in position', axis.in_position)
+        return stat
