@@ -11,9 +11,11 @@ FOCAL = (WIDTH / 2.0) / np.tan(np.radians(66.0) / 2.0)
 CX, CY = (WIDTH - 1) / 2.0, (HEIGHT - 1) / 2.0
 BASELINE = 0.12
 
-# BGR anchors of the ripeness colour ramp (0 green .. 1 red)
-_RAMP = [(0.0, (50, 180, 140)), (0.35, (40, 170, 200)), (0.6, (80, 110, 235)),
-         (1.0, (40, 40, 200))]
+# ripeness colour ramp (0 green .. 1 red): RGB albedo anchors, the same facts harvest_sim's
+# renderer documents, so the calibrated ripeness score applies to these images too
+_RAMP_RGB = [(0.0, (0.30, 0.55, 0.16)), (0.2, (0.45, 0.62, 0.18)), (0.35, (0.75, 0.62, 0.22)),
+             (0.55, (0.93, 0.45, 0.36)), (0.7, (0.85, 0.19, 0.11)), (1.0, (0.70, 0.06, 0.04))]
+_RAMP = [(r, (255 * c[2], 255 * c[1], 255 * c[0])) for r, c in _RAMP_RGB]
 
 
 def ripeness_colour(r):
@@ -64,6 +66,16 @@ def gt_box(fruit, eye='right'):
     u = FOCAL * pts[:, 0] / pts[:, 2] + CX
     v = FOCAL * pts[:, 1] / pts[:, 2] + CY
     return u.min(), v.min(), u.max(), v.max()
+
+
+def _skin_texture():
+    import cv2
+    noise = np.random.RandomState(77).standard_normal((96, 192)).astype(np.float32)
+    noise = cv2.GaussianBlur(noise, (0, 0), 0.8)
+    return noise / noise.std()
+
+
+_SKIN = _skin_texture()
 
 
 def _texture(shape, rng, scale):
@@ -127,8 +139,10 @@ def render(fruits, leaves=(), eye='right', seed=0, width=WIDTH, height=HEIGHT, f
         spec = np.clip((n * half).sum(-1), 0, 1) ** 40
         base = ripeness_colour(fr.ripeness)
         # skin texture fixed on the fruit (the same in both eyes, so stereo can match it)
-        skin = 1.0 + 0.08 * np.sin(37.0 * n[..., 0] + 3.0 * i) * np.sin(41.0 * n[..., 1]) \
-            * np.cos(23.0 * n[..., 2])
+        theta = np.arccos(np.clip(-n[..., 1], -1.0, 1.0))
+        phi = np.arctan2(n[..., 2], n[..., 0]) + np.pi
+        skin = 1.0 + 0.12 * _SKIN[(theta * (_SKIN.shape[0] - 1) / np.pi).astype(int),
+                                  (phi * (_SKIN.shape[1] - 1) / (2 * np.pi)).astype(int)]
         col = base[None, None, :] * (0.35 + 0.65 * lam)[..., None] * skin[..., None] * light
         col += 200.0 * spec[..., None]
         sub = img[y0:y1, x0:x1]

@@ -9,10 +9,13 @@ Pipeline for one BGR image (run at ~scale for speed, results in full-resolution 
   3. a circle fitted to each part's outer boundary points that lie on its convex hull (leaf
      notches and the cut between touching fruit are ignored), validated by fill ratio and by
      the fraction of the part inside the circle; green parts must look rounder than ripe ones;
-  4. ripeness from the mean CIE Lab colour of the fruit skin (highlights and deep shadow
-     excluded): the Lab hue angle h_ab = atan2(b*, a*) falls from about 110 deg (green) to
-     about 35 deg (red); it is mapped linearly to a 0..1 score and then to the four stages
-     green < 0.25 <= turning < 0.5 <= pink < 0.7 <= red.
+  4. ripeness from the mean colour of the fruit skin (highlights, clipped and deep-shadow pixels
+     excluded) as its red chromaticity r = R / (R + G + B): independent of brightness and
+     shading, and monotone from mature green (~0.30) through turning and pink to deep red
+     (~0.88). A piecewise-linear calibration curve (score_chroma -> score_values, measured on
+     the simulated crop, see README) maps it to a 0..1 score, then to the four stages
+     green < 0.25 <= turning < 0.5 <= pink < 0.7 <= red. The CIE Lab hue angle is kept for
+     diagnostics.
 """
 import math
 
@@ -27,18 +30,26 @@ STAGE_THRESHOLDS = (0.25, 0.5, 0.7)
 #: default parameters (ROS params of the same names override them; see config/detection.yaml)
 DEFAULTS = {
     'scale': 0.5,               # processing scale of the input image
-    'min_radius_px': 10.0,      # smallest fruit radius [px, full resolution]
+    'min_radius_px': 20.0,      # smallest fruit radius [px, full resolution]
     'max_radius_px': 200.0,     # largest fruit radius [px, full resolution]
     'hue_max': 42,              # fruit hue band: OpenCV hue (0..180) <= hue_max or >= hue_wrap
     'hue_wrap': 165,
     'sat_min': 80,              # HSV saturation floor of fruit skin (0..255)
-    'val_min': 45,              # HSV value floor (0..255)
+    'val_min': 20,              # HSV value floor (0..255)
     'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
     'min_fill_green': 0.6,      # same for green-coloured fruit (stricter: leaves are green)
     'min_inside': 0.85,         # fraction of the part's pixels inside its fitted circle
     'peak_separation': 0.75,    # NMS: a peak closer than this x the stronger radius is merged
-    'hue_angle_green': 110.0,   # Lab hue angle [deg] of score 0 (mature green)
-    'hue_angle_red': 35.0,      # Lab hue angle [deg] of score 1 (fully red)
+    'single_fit_residual_px': 0.9,  # a region whose outline fits one circle within this median
+                                    # misfit [px at ~scale] (and better than its parts) is one fruit
+    'hue_split': 15,            # OpenCV hue: red/orange pass up to here, then the whole band
+    'open_px': 5,               # opening kernel [px at ~scale]: removes stems and twine
+    'close_px': 5,              # closing kernel [px at ~scale]: bridges stems in front of fruit
+    'merge_score_diff': 0.25,   # fragments of one fruit: at most this ripeness-score apart
+    # ripeness calibration: red chromaticity knots and the scores they map to (monotone)
+    'score_chroma': [0.30, 0.36, 0.42, 0.46, 0.50, 0.534, 0.62, 0.70, 0.766, 0.81, 0.842, 0.875],
+    'score_values': [0.0, 0.175, 0.275, 0.325, 0.425, 0.525, 0.625, 0.70, 0.825, 0.925, 0.975,
+                     1.0],
 }
 
 
@@ -54,10 +65,10 @@ class Detection(object):
     """One detected fruit, in full-resolution pixel coordinates of the input image."""
 
     __slots__ = ('u', 'v', 'radius_px', 'score', 'stage', 'fill', 'area_px', 'mask',
-                 'mask_origin', 'mask_scale', 'hue_angle')
+                 'mask_origin', 'mask_scale', 'hue_angle', 'chroma')
 
     def __init__(self, u, v, radius_px, score, mask=None, mask_origin=(0, 0), mask_scale=1.0,
-                 fill=1.0, area_px=0.0, hue_angle=float('nan')):
+                 fill=1.0, area_px=0.0, hue_angle=float('nan'), chroma=float('nan')):
         self.u = float(u)
         self.v = float(v)
         self.radius_px = float(radius_px)
@@ -69,6 +80,7 @@ class Detection(object):
         self.fill = float(fill)
         self.area_px = float(area_px)
         self.hue_angle = float(hue_angle)
+        self.chroma = float(chroma)
 
     def box(self, width=None, height=None):
         """(x, y, w, h) integer box around the fitted circle, clipped to the image if given."""
@@ -86,6 +98,9 @@ class Detection(object):
         """Vectorised: is full-resolution pixel (u, v) on this fruit's visible part?"""
         u = np.asarray(u, dtype=np.float64)
         v = np.asarray(v, dtype=np.float64)
+        finite = np.isfinite(u) & np.isfinite(v)
+        u = np.where(finite, u, -1e6)
+        v = np.where(finite, v, -1e6)
         inside = (u - self.u) ** 2 + (v - self.v) ** 2 <= self.radius_px ** 2
         if self.mask is None:
             return inside
@@ -152,30 +167,43 @@ class TomatoDetector(object):
         for key, value in params.items():
             if key in DEFAULTS:
                 self.params[key] = type(DEFAULTS[key])(value)
+        if len(self.params['score_chroma']) != len(self.params['score_values']):
+            raise ValueError('score_chroma and score_values must have the same length')
 
     # -- colour -------------------------------------------------------------------------------
-    def colour_mask(self, hsv):
+    def colour_mask(self, hsv, hue_max=None):
+        """Fruit-colour pixels: hue <= hue_max (default ~hue_max) or >= ~hue_wrap, S, V floors."""
         p = self.params
         h, s, v = cv2.split(hsv)
-        hue_ok = cv2.bitwise_or(cv2.inRange(h, 0, int(p['hue_max'])),
-                                cv2.inRange(h, int(p['hue_wrap']), 180))
+        top = int(p['hue_max'] if hue_max is None else hue_max)
+        hue_ok = cv2.bitwise_or(cv2.inRange(h, 0, top), cv2.inRange(h, int(p['hue_wrap']), 180))
         sv_ok = cv2.bitwise_and(cv2.inRange(s, int(p['sat_min']), 255),
                                 cv2.inRange(v, int(p['val_min']), 255))
         return cv2.bitwise_and(hue_ok, sv_ok)
 
-    def score_of(self, bgr_pixels):
-        """(score, Lab hue angle) from an Nx3 uint8 BGR array of skin pixels."""
-        if len(bgr_pixels) == 0:
-            return 0.0, float('nan')
-        lab = cv2.cvtColor(bgr_pixels.reshape(-1, 1, 3), cv2.COLOR_BGR2LAB).reshape(-1, 3)
-        a = float(lab[:, 1].mean()) - 128.0
-        b = float(lab[:, 2].mean()) - 128.0
-        angle = math.degrees(math.atan2(b, a))
-        if angle < -90.0:          # purple-red wraps below zero: treat as fully red
-            angle += 360.0
+    def _clean(self, mask):
+        """Opening removes stems, twine and speckle; closing bridges thin gaps on the fruit."""
         p = self.params
-        score = (p['hue_angle_green'] - angle) / (p['hue_angle_green'] - p['hue_angle_red'])
-        return min(max(score, 0.0), 1.0), angle
+        for op, size in ((cv2.MORPH_OPEN, int(p['open_px'])), (cv2.MORPH_CLOSE,
+                                                                 int(p['close_px']))):
+            if size > 1:
+                mask = cv2.morphologyEx(mask, op, cv2.getStructuringElement(
+                    cv2.MORPH_ELLIPSE, (size, size)))
+        return mask
+
+    def score_of(self, bgr_pixels):
+        """(score, red chromaticity, Lab hue angle [deg]) of an Nx3 uint8 BGR skin sample."""
+        if len(bgr_pixels) == 0:
+            return 0.0, float('nan'), float('nan')
+        mean = bgr_pixels.reshape(-1, 3).astype(np.float64).mean(axis=0)
+        total = float(mean.sum())
+        chroma = float(mean[2]) / total if total > 0 else 0.0
+        lab = cv2.cvtColor(np.uint8(np.clip(mean + 0.5, 0, 255)).reshape(1, 1, 3),
+                           cv2.COLOR_BGR2LAB).reshape(3).astype(np.float64) - 128.0
+        angle = math.degrees(math.atan2(lab[2], lab[1]))
+        p = self.params
+        score = float(np.interp(chroma, p['score_chroma'], p['score_values']))
+        return min(max(score, 0.0), 1.0), chroma, angle
 
     # -- main ---------------------------------------------------------------------------------
     def detect(self, bgr):
@@ -187,12 +215,23 @@ class TomatoDetector(object):
         else:
             small = bgr
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
-        mask = self.colour_mask(hsv)
-        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
-        mask = cv2.morphologyEx(mask, cv2.MORPH_OPEN, kernel)
-        mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, kernel)
         r_min = p['min_radius_px'] * scale
         r_max = p['max_radius_px'] * scale
+        # pass 1: red to orange (pink and red fruit, the red side of turning ones)
+        red = self._candidates(self._clean(self.colour_mask(hsv, p['hue_split'])), small, hsv,
+                               r_min, r_max, scale, strict=False)
+        # pass 2: the whole fruit band, which also takes in yellowish stems, twine and leaves
+        # in dim warm light: only round, well-filled fruit not already found in pass 1
+        full = self._candidates(self._clean(self.colour_mask(hsv)), small, hsv, r_min, r_max,
+                                scale, strict=True)
+        found = list(red)
+        for det in full:
+            if all(math.hypot(det.u - o.u, det.v - o.v) > 0.8 * max(det.radius_px, o.radius_px)
+                   for o in red):
+                found.append(det)
+        return self._merge_fragments(found)
+
+    def _candidates(self, mask, small, hsv, r_min, r_max, scale, strict):
         count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         height, width = mask.shape
         detections = []
@@ -204,8 +243,26 @@ class TomatoDetector(object):
             x1, y1 = min(x + w + 1, width), min(y + h + 1, height)
             comp = _fill_holes((labels[y0:y1, x0:x1] == label).astype(np.uint8))
             detections.extend(self._split_component(comp, (x0, y0), small, hsv, r_min, r_max,
-                                                    scale, (width, height)))
+                                                    scale, (width, height), strict))
         return detections
+
+    def _merge_fragments(self, detections):
+        """Drop fragments whose centre lies inside a larger, similarly coloured fruit.
+
+        A fruit cut into pieces by a stem or a leaf in front of it gives several parts; the
+        largest fitted circle stands for the fruit and the smaller ones inside it go.
+        """
+        keep = []
+        for det in sorted(detections, key=lambda d: -d.radius_px):
+            host = None
+            for big in keep:
+                if math.hypot(det.u - big.u, det.v - big.v) < 0.9 * big.radius_px and \
+                        abs(det.score - big.score) <= self.params['merge_score_diff']:
+                    host = big
+                    break
+            if host is None:
+                keep.append(det)
+        return keep
 
     def _peaks(self, dist, r_min):
         """Non-maximum-suppressed distance-transform maxima: list of (x, y, r)."""
@@ -224,7 +281,7 @@ class TomatoDetector(object):
                 peaks.append((px, py, pr))
         return peaks
 
-    def _split_component(self, comp, origin, small, hsv, r_min, r_max, scale, size):
+    def _split_component(self, comp, origin, small, hsv, r_min, r_max, scale, size, strict):
         p = self.params
         dist = cv2.distanceTransform(comp, cv2.DIST_L2, 5)
         peaks = self._peaks(dist, r_min)
@@ -251,16 +308,33 @@ class TomatoDetector(object):
         on_border = (gx + ox <= 0) | (gy + oy <= 0) | (gx + ox >= width - 1) | \
             (gy + oy >= height - 1)
         outer[gy[on_border], gx[on_border]] = False
-        results = []
+        # hypothesis A: one fruit per distance-transform peak (power-diagram parts)
+        candidates = []          # (part mask, circle)
         for k, (px, py, pr) in enumerate(peaks):
             part = (parts == k)
-            area = int(part.sum())
-            if area < math.pi * r_min * r_min * 0.3:
+            if part.sum() < math.pi * r_min * r_min * 0.3:
                 continue
             circle = self._fit_part(part, outer, pr)
-            if circle is None:
-                continue
-            cx, cy, r = circle
+            if circle is not None:
+                candidates.append((part, circle))
+        if len(peaks) > 1:
+            # hypothesis B: one fruit seen in pieces (a leaf or stem in front of it) also has
+            # several peaks; keep it whole when one circle explains its outline at least as
+            # well as the parts explain theirs
+            whole = self._fit_part(comp > 0, outer, max(pk[2] for pk in peaks))
+            if whole is not None and whole[3] * whole[2] <= p['single_fit_residual_px']:
+                areas = [float(c[0].sum()) for c in candidates]
+                split = sum(a * c[1][3] for a, c in zip(areas, candidates)) / sum(areas) \
+                    if candidates else 1.0
+                pys, pxs = np.nonzero(comp)
+                cx, cy, r = whole[:3]
+                if whole[3] <= split and np.mean(
+                        (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
+                    candidates = [(comp > 0, whole)]
+        results = []
+        for part, circle in candidates:
+            area = int(part.sum())
+            cx, cy, r = circle[:3]
             if r < r_min or r > r_max:
                 continue
             pys, pxs = np.nonzero(part)
@@ -270,9 +344,12 @@ class TomatoDetector(object):
             skin = ((pxs - cx) ** 2 + (pys - cy) ** 2 <= (0.85 * r) ** 2)
             sy, sx = pys[skin] + oy, pxs[skin] + ox
             hsv_px = hsv[sy, sx]
-            good = (hsv_px[:, 2] > 50) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200))
-            score, angle = self.score_of(small[sy[good], sx[good]])
-            min_fill = p['min_fill'] if score >= STAGE_THRESHOLDS[0] else p['min_fill_green']
+            bgr_px = small[sy, sx]
+            good = (hsv_px[:, 2] > 2 * p['val_min']) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200)) & \
+                (bgr_px.max(axis=1) < 250)
+            score, chroma, angle = self.score_of(bgr_px[good])
+            min_fill = p['min_fill_green'] if strict or score < STAGE_THRESHOLDS[0] else \
+                p['min_fill']
             if inside < p['min_inside'] or fill < min_fill:
                 continue
             x0 = max(int(math.floor(cx - r)) - 1, 0)
@@ -281,19 +358,20 @@ class TomatoDetector(object):
             results.append(Detection(
                 (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, r / scale, score,
                 mask=crop.copy(), mask_origin=(x0 + ox, y0 + oy), mask_scale=scale,
-                fill=fill, area_px=area / (scale * scale), hue_angle=angle))
+                fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma))
         return results
 
     @staticmethod
     def _fit_part(part, outer, peak_r):
-        """Circle through the part's outer-boundary pixels that lie on its convex hull."""
+        """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
+        lie on its convex hull; residual = median radial misfit / r (1.0 for the fallback)."""
         edge = part & outer
         ys, xs = np.nonzero(edge)
-        fallback = None
         pys, pxs = np.nonzero(part)
-        if len(pxs):
-            mx, my = float(pxs.mean()), float(pys.mean())
-            fallback = (mx, my, max(peak_r, math.sqrt(len(pxs) / math.pi)))
+        if len(pxs) == 0:
+            return None
+        mx, my = float(pxs.mean()), float(pys.mean())
+        fallback = (mx, my, max(peak_r, math.sqrt(len(pxs) / math.pi)), 1.0)
         if len(xs) < 8:
             return fallback
         hull = cv2.convexHull(np.column_stack([pxs, pys]).astype(np.int32))
@@ -302,17 +380,19 @@ class TomatoDetector(object):
         on_hull = _hull_distance(hull, xs, ys) <= 1.5
         if on_hull.sum() >= 8:
             xs, ys = xs[on_hull], ys[on_hull]
-        circle = robust_fit_circle(xs.astype(np.float64), ys.astype(np.float64))
+        xs = xs.astype(np.float64)
+        ys = ys.astype(np.float64)
+        circle = robust_fit_circle(xs, ys)
         if circle is None:
             return fallback
         cx, cy, r = circle
-        # the distance-transform peak must lie well inside the fitted circle, and the radius
-        # must be consistent with the inscribed radius
+        # the radius must be consistent with the inscribed radius, the centre near the part
         if r < 0.8 * peak_r or r > 3.0 * peak_r + 2.0:
             return fallback
-        if np.hypot(cx - pxs.mean(), cy - pys.mean()) > r:
+        if math.hypot(cx - mx, cy - my) > r:
             return fallback
-        return circle
+        residual = float(np.median(np.abs(np.hypot(xs - cx, ys - cy) - r))) / r
+        return cx, cy, r, residual
 
 
 def _fill_holes(comp):

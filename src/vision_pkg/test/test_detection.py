@@ -1,0 +1,101 @@
+"""Tomato detection and ripeness grading on synthetic ray-cast images."""
+import math
+
+import numpy as np
+import pytest
+
+import synthetic_scene as scene
+from vision_pkg import detection
+from vision_pkg.detection import TomatoDetector, fit_circle, robust_fit_circle, stage_of
+
+
+def _iou(a, b):
+    ix = max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+    iy = max(0.0, min(a[3], b[3]) - max(a[1], b[1]))
+    inter = ix * iy
+    return inter / ((a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter)
+
+
+def _match(det, fruit):
+    x, y, w, h = det.box()
+    return _iou((x, y, x + w, y + h), scene.gt_box(fruit))
+
+
+@pytest.fixture(scope='module')
+def cluster_scene():
+    fruits = [scene.Fruit(-0.05, 0.02, 0.50, 0.035, 0.95),    # touching pair of ripe fruit
+              scene.Fruit(0.0205, 0.03, 0.52, 0.035, 0.85),
+              scene.Fruit(-0.17, -0.09, 0.55, 0.04, 0.4),      # turning
+              scene.Fruit(0.16, 0.11, 0.46, 0.03, 0.62),       # pink
+              scene.Fruit(0.02, -0.14, 0.62, 0.03, 0.9)]       # ripe, partly behind a leaf
+    leaves = [scene.Leaf(0.035, -0.12, 0.55, 0.03, 0.012, 0.3)]
+    image, _, _ = scene.render(fruits, leaves, backdrop_depth=0.95)
+    return fruits, image, TomatoDetector().detect(image)
+
+
+def test_every_fruit_found_once(cluster_scene):
+    fruits, _, dets = cluster_scene
+    for fruit in fruits:
+        matches = [d for d in dets if _match(d, fruit) >= 0.5]
+        assert len(matches) == 1, (fruit.centre, dets)
+    assert len(dets) == len(fruits)
+
+
+def test_touching_fruit_are_split(cluster_scene):
+    fruits, _, dets = cluster_scene
+    pair = [d for d in dets if _match(d, fruits[0]) >= 0.5 or _match(d, fruits[1]) >= 0.5]
+    assert len(pair) == 2
+    for d, f in zip(sorted(pair, key=lambda d: d.u), fruits[:2]):
+        u, v = scene.project(f.centre)
+        assert math.hypot(d.u - u, d.v - v) < 4.0
+
+
+def test_stages_graded(cluster_scene):
+    fruits, _, dets = cluster_scene
+    for fruit in fruits:
+        det = max(dets, key=lambda d: _match(d, fruit))
+        assert det.stage == stage_of(fruit.ripeness), (fruit.ripeness, det)
+        assert abs(det.score - fruit.ripeness) < 0.12, (fruit.ripeness, det)
+
+
+def test_partly_occluded_fruit_keeps_its_full_circle(cluster_scene):
+    fruits, _, dets = cluster_scene
+    det = max(dets, key=lambda d: _match(d, fruits[4]))
+    x0, y0, x1, y1 = scene.gt_box(fruits[4])
+    assert det.radius_px == pytest.approx((x1 - x0) / 2.0, rel=0.1)
+
+
+def test_no_fruit_no_detection():
+    image, _, _ = scene.render([], [scene.Leaf(0.0, 0.0, 0.6, 0.05, 0.02)], backdrop_depth=0.95)
+    assert TomatoDetector().detect(image) == []
+
+
+def test_contains_uses_the_part_mask(cluster_scene):
+    fruits, _, dets = cluster_scene
+    det = max(dets, key=lambda d: _match(d, fruits[0]))
+    assert det.contains(det.u, det.v)
+    assert not det.contains(det.u + 2 * det.radius_px, det.v)
+
+
+def test_stage_thresholds():
+    assert [stage_of(s) for s in (0.0, 0.24, 0.25, 0.49, 0.5, 0.69, 0.7, 1.0)] == \
+        [0, 0, 1, 1, 2, 2, 3, 3]
+
+
+def test_circle_fit_ignores_outliers():
+    a = np.linspace(0, 1.5 * math.pi, 60)
+    xs = 40 + 25 * np.cos(a)
+    ys = 30 + 25 * np.sin(a)
+    xs = np.concatenate([xs, [40, 42, 44]])        # a chord of outliers
+    ys = np.concatenate([ys, [30, 31, 29]])
+    cx, cy, r = robust_fit_circle(xs, ys, iterations=3, keep=0.9)
+    assert (cx, cy, r) == pytest.approx((40, 30, 25), abs=0.5)
+    assert fit_circle(np.array([1.0, 2.0]), np.array([1.0, 2.0])) is None
+
+
+def test_unknown_parameter_rejected():
+    with pytest.raises(ValueError):
+        TomatoDetector(no_such_param=1)
+    with pytest.raises(ValueError):
+        TomatoDetector().update(score_chroma=[0.1, 0.2])
+    assert set(detection.DEFAULTS) >= {'min_radius_px', 'scale'}

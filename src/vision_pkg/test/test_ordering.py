@@ -1,0 +1,40 @@
+"""Picking order: bottom to top, then left to right, with a row tolerance."""
+import pytest
+
+from vision_pkg.ordering import picking_order
+
+
+def test_empty():
+    assert picking_order([], 10.0) == []
+
+
+def test_bottom_row_first_then_left_to_right():
+    # image coordinates (u right, v down): two rows
+    pts = [(500, 100), (100, 400), (300, 105), (400, 395), (50, 110)]
+    assert picking_order(pts, 20.0) == [1, 3, 4, 2, 0]
+
+
+def test_tolerance_decides_rows():
+    pts = [(300, 400), (100, 370)]      # 30 px apart vertically
+    assert picking_order(pts, 40.0) == [1, 0]    # one row: left first
+    assert picking_order(pts, 20.0) == [0, 1]    # two rows: lower first
+
+
+def test_staggered_chain_does_not_become_one_row():
+    # each fruit 15 px above the previous: rows are anchored at their lowest fruit
+    pts = [(i * 50, 500 - i * 15) for i in range(6)]
+    order = picking_order(pts, 20.0)
+    assert order == [0, 1, 2, 3, 4, 5]
+    pts_rev = [(300 - i * 50, 500 - i * 15) for i in range(6)]
+    # rows {0,1}, {2,3}, {4,5}; within each row left (smaller u) first
+    assert picking_order(pts_rev, 20.0) == [1, 0, 3, 2, 5, 4]
+
+
+def test_ties_are_deterministic():
+    pts = [(100, 200), (100, 200), (50, 200)]
+    assert picking_order(pts, 0.0) == [2, 0, 1]
+
+
+def test_negative_tolerance_rejected():
+    with pytest.raises(ValueError):
+        picking_order([(0, 0)], -1.0)
