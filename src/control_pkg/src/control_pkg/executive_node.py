@@ -4,7 +4,7 @@ Node `task_planner`
   Action clients (relative names, see config/executive.yaml `actions`): self_test, move_base,
     tomato_scan, spatial_temporal, kinematics, move_robot, end_effector, visual_servo
   Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: true = stop)
-  Services:   ~emergency_stop (std_srvs/Trigger), ~resume (std_srvs/Trigger)
+  Services:   ~start, ~emergency_stop, ~resume (std_srvs/Trigger; ~start when ~autostart is false)
   Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR
   Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
               mission/summary (std_msgs/String, JSON totals, latched), ~state (std_msgs/String, latched)
@@ -105,6 +105,7 @@ class TaskPlanner(object):
         rospy.Subscriber('emergency_stop', Bool, self._estop_topic_cb, queue_size=10)
         rospy.Service('~emergency_stop', Trigger, self._estop_srv)
         rospy.Service('~resume', Trigger, self._resume_srv)
+        rospy.Service('~start', Trigger, self._start_srv)
         self.outcome = None
         self._thread = None
         rospy.on_shutdown(self.on_shutdown)
@@ -142,6 +143,12 @@ class TaskPlanner(object):
             return TriggerResponse(success=False, message='not stopped')
         self.request_resume('resume service')
         return TriggerResponse(success=True, message='resume requested')
+
+    def _start_srv(self, req):
+        if self._thread is not None:
+            return TriggerResponse(success=False, message='mission already started (outcome: %s)' % self.outcome)
+        self.start()
+        return TriggerResponse(success=True, message='mission %s started' % self.mission_id)
 
     def request_stop(self, source):
         if not self.estop.is_set():
@@ -183,6 +190,7 @@ class TaskPlanner(object):
 
     # --- running ---------------------------------------------------------------------------------
     def start(self):
+        self.publish_event('state', 'START', 'mission %s started' % self.mission_id)
         self._thread = threading.Thread(target=self._run, name='task_planner')
         self._thread.daemon = True
         self._thread.start()
