@@ -2,8 +2,11 @@
 
 ~kind "stereo": the Bumblebee2-like head. Publishes bumblebee2/left/image_raw,
 bumblebee2/right/image_raw (bgr8) and bumblebee2/{left,right}/camera_info (plumb_bob, zero
-distortion, the right P has Tx = -fx * baseline) in frames stereo_left_optical /
-stereo_right_optical, all four with one stamp (stereo_image_proc's exact sync).
+distortion, the right P has Tx = -fx * baseline), all four with one stamp (stereo_image_proc's
+exact sync). The right eye is rendered from stereo_right_optical, but both eyes' headers carry
+frame stereo_left_optical (~right_frame_id): a stereo pair is described in the left camera's
+frame (the right P holds the baseline), and image_geometry's StereoCameraModel, used by
+stereo_image_proc, asserts that both camera_info frames are equal.
 ~kind "hand": the eye-in-hand camera on the cutting hand: hand_camera/image_raw and
 hand_camera/camera_info in frame hand_camera_optical.
 
@@ -13,7 +16,8 @@ pose or the fruit changed, otherwise the cached frame is republished with a new 
 rendered or published while nobody subscribes (~always_publish false).
 Parameters: ~scenario (required, name or path), ~kind (stereo|hand), ~rate (Hz of ROS time:
 stereo 2, hand 5), ~width, ~height, ~hfov_deg (defaults 1024x768/66 deg and 640x480/60 deg),
-~noise_sigma (2.0 DN), ~seed (default: the scenario's), ~robot_config, ~always_publish (false).
+~noise_sigma (2.0 DN), ~seed (default: the scenario's), ~robot_config, ~always_publish (false),
+~right_frame_id (stereo_left_optical).
 """
 
 import threading
@@ -66,9 +70,10 @@ def image_msg(img, frame_id):
 class Eye(object):
     """One image stream: camera model, frame, publishers, cached message."""
 
-    def __init__(self, name, camera, frame, image_topic, info_topic, tx=0.0):
-        self.name, self.camera, self.frame = name, camera, frame
-        self.info = camera_info(camera, frame, tx)
+    def __init__(self, name, camera, frame, image_topic, info_topic, tx=0.0, header_frame=None):
+        self.name, self.camera, self.frame = name, camera, frame     # frame: pose to render
+        self.header_frame = header_frame or frame
+        self.info = camera_info(camera, self.header_frame, tx)
         self.image_pub = rospy.Publisher(image_topic, Image, queue_size=1)
         self.info_pub = rospy.Publisher(info_topic, CameraInfo, queue_size=1)
         self.image = None
@@ -100,7 +105,8 @@ class SimCameraNode(object):
             self.eyes = [Eye('left', camera, 'stereo_left_optical', names.STEREO_LEFT_IMAGE,
                              names.STEREO_LEFT_INFO),
                          Eye('right', camera, 'stereo_right_optical', names.STEREO_RIGHT_IMAGE,
-                             names.STEREO_RIGHT_INFO, -camera.fx * self.geom.stereo_baseline)]
+                             names.STEREO_RIGHT_INFO, -camera.fx * self.geom.stereo_baseline,
+                             rospy.get_param('~right_frame_id', 'stereo_left_optical'))]
         else:
             self.eyes = [Eye('hand', camera, 'hand_camera_optical', names.HAND_IMAGE,
                              names.HAND_INFO)]
@@ -154,7 +160,7 @@ class SimCameraNode(object):
                 rospy.logdebug_throttle(10.0, 'sim_camera: %s frame rendered in %.0f ms'
                                         % (e.name, ms))
                 e.frames += 1
-                e.image = image_msg(img, e.frame)
+                e.image = image_msg(img, e.header_frame)
             self._rendered_key = key
         stamp = rospy.Time.now()
         for e in self.eyes:
