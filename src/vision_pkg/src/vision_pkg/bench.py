@@ -199,7 +199,7 @@ def run(args, log=print):
     cv2.setNumThreads(1)
     detector = load_detector(args.config)
     stereo = load_stereo_params(args.stereo_config)
-    tp = fp = fn = 0
+    tp = fp = fn = ignored = 0
     stage_total = stage_ok = 0
     confusion = np.zeros((4, 4), dtype=int)
     err_all, err_range = [], []
@@ -238,6 +238,11 @@ def run(args, log=print):
                 stage_total += 1
                 stage_ok += int(true_stage == d.stage)
             if not det_ripe:
+                continue
+            if j is None and any(not care[k] and gt_boxes[k][0] <= d.u <= gt_boxes[k][2] and
+                                 gt_boxes[k][1] <= d.v <= gt_boxes[k][3]
+                                 for k in range(len(gts))):
+                ignored += 1          # on a mostly hidden fruit: neither TP nor FP
                 continue
             if j is not None and gts[j]['ripeness'] >= RIPE:
                 tp += 1
@@ -279,7 +284,8 @@ def run(args, log=print):
 
     log('frames: %d (%dx%d), detector %s' % (frames, 1024, 768, detector.params))
     log('ripe-fruit detection (score >= %.2f, IoU >= %.1f, visible >= %.2f): TP %d FP %d FN %d'
-        % (args.min_ripeness, IOU_MIN, args.min_visible, tp, fp, fn))
+        ' (%d ripe detections on mostly hidden fruit ignored)'
+        % (args.min_ripeness, IOU_MIN, args.min_visible, tp, fp, fn, ignored))
     log('  precision %.3f  recall %.3f  F1 %.3f' % (precision, recall, f1))
     log('stage accuracy: %.3f (%d/%d matched fruit)' % (
         stage_ok / float(stage_total) if stage_total else float('nan'), stage_ok, stage_total))
