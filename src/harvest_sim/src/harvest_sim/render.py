@@ -4,8 +4,9 @@ Geometry is exact pinhole geometry: every pixel (u, v) is the ray through its ce
 fruit (spheres), leaves (planar leaflets) and stems (capsules) are intersected with those rays
 inside their projected bounding boxes; a depth buffer resolves occlusion. The background is the
 canopy behind the row (plane x = track.backdrop_x), the opposite row (x = track.aisle_x), the
-floor (z = 0) and the roof (z = ROOF_Z), each a textured plane drawn with a homography, so every
-surface carries texture fixed in 3-D (block matching finds the same pattern in both eyes).
+floor (z = 0) and the roof (z = ROOF_Z): textured planes ray-cast at half resolution into one
+texture atlas and scaled up. Every surface carries texture fixed in 3-D, so block matching
+finds the same pattern in both eyes.
 
 Shading: Lambert + ambient + Blinn-Phong highlights with the scenario's light (intensity, colour,
 direction); fruit get a calyx (star of sepals round the peduncle), a fine surface texture, and
@@ -35,7 +36,7 @@ RIPENESS_COLOURS = ((0.0, (0.30, 0.55, 0.16)), (0.2, (0.45, 0.62, 0.18)),
 CALYX_RGB = (0.16, 0.36, 0.08)
 STEM_RGB = (0.33, 0.48, 0.20)
 PEDICEL_RADIUS = 0.0025
-TEX_RES = 0.002                  # m per texel of the plane textures
+TEX_RES = 0.002                  # m per texel of the canopy textures
 CANOPY_TILE = (1.6, 3.4)         # m: width along the row, height (z from -0.2)
 LABEL_LEAF, LABEL_STEM = 1000, 2000
 
@@ -82,11 +83,13 @@ def _wrapped_ellipse(img, centre, axes, angle, colour, width_px):
 
 
 class _Plane(object):
-    """Textured plane n.p = dist (axis-aligned) with a texture mapping (a, b) in-plane coords."""
+    """Axis-aligned background plane {p: p[axis] == value} and its place in the atlas."""
 
-    def __init__(self, axis, value, texture, origin, res, wrap):
-        self.axis, self.value = axis, value       # plane {p: p[axis] == value}
-        self.texture, self.origin, self.res, self.wrap = texture, origin, res, wrap
+    def __init__(self, axis, value, kind, origin, size, res):
+        self.axis, self.value, self.kind = axis, value, kind
+        self.origin = origin           # atlas (col, row) of the tile block's top-left corner
+        self.size = size               # (w, h) of one tile in texels
+        self.res = res                 # m per texel
 
 
 class Renderer(object):
@@ -107,15 +110,13 @@ class Renderer(object):
         self.leaf_tex = _noise_texture(rng, (128, 128), 1.0)
         self.fruit_phase = rng.uniform(0.0, 1.0, 4096)
         canopy_lit = np.float32((lt.ambient + 0.45) * lt.intensity)
-        self.planes = [
-            _Plane(0, scenario.track.backdrop_x, self._canopy(rng, canopy_lit), None, TEX_RES,
-                   False),
-            _Plane(0, scenario.track.aisle_x, self._canopy(rng, canopy_lit * 0.9), None,
-                   TEX_RES, False),
-            _Plane(2, 0.0, self._floor(rng, np.float32((lt.ambient + 0.6) * lt.intensity)),
-                   (0.0, 0.0), 0.004, True),
-            _Plane(2, ROOF_Z, self._roof(rng, np.float32(0.3 + 0.8 * lt.intensity)),
-                   (0.0, 0.0), 0.01, True)]
+        self._build_atlas(rng, canopy_lit,
+                          np.float32((lt.ambient + 0.6) * lt.intensity),
+                          np.float32(0.3 + 0.8 * lt.intensity))
+        self.planes = [_Plane(0, scenario.track.backdrop_x, 'canopy', *self._atlas_slots[0]),
+                       _Plane(0, scenario.track.aisle_x, 'canopy', *self._atlas_slots[1]),
+                       _Plane(2, 0.0, 'floor', *self._atlas_slots[2]),
+                       _Plane(2, ROOF_Z, 'roof', *self._atlas_slots[3])]
         self.stems = [(s.points, s.radius) for s in scenario.stems]
         self._noise = {}
         self._rays = {}
@@ -126,8 +127,36 @@ class Renderer(object):
         out = img_rgb_float[:, :, ::-1] * (_bgr(self.scenario.lighting.colour) * lit)
         return np.clip(out * 255.0, 0, 255).astype(np.uint8)
 
+    def _build_atlas(self, rng, canopy_lit, floor_lit, roof_lit):
+        """One texture atlas for every background plane: each tile is stored 2 x 2 times (the
+        canopies 2 x 1: they are clamped in height) so that coordinates taken modulo the tile
+        and shifted by half a tile never touch an edge (seamless wrapping with bilinear
+        filtering). Slots: (origin, tile size, m/texel)."""
+        tiles = [(self._canopy(rng, canopy_lit), TEX_RES),
+                 (self._canopy(rng, canopy_lit * np.float32(0.9)), TEX_RES),
+                 (self._floor(rng, floor_lit), 0.004),
+                 (self._roof(rng, roof_lit), 0.01)]
+        blocks = [np.tile(t, (1, 2, 1) if i < 2 else (2, 2, 1))   # canopy: clamped in height
+                  for i, (t, _) in enumerate(tiles)]
+        # canopies stacked; floor, roof and a sky swatch side by side below them
+        width = max(blocks[0].shape[1], blocks[2].shape[1] + blocks[3].shape[1] + 8)
+        height = blocks[0].shape[0] + blocks[1].shape[0] + max(blocks[2].shape[0],
+                                                               blocks[3].shape[0])
+        atlas = np.zeros((height, width, 3), np.uint8)
+        origins = [(0, 0), (0, blocks[0].shape[0]),
+                   (0, blocks[0].shape[0] + blocks[1].shape[0]),
+                   (blocks[2].shape[1], blocks[0].shape[0] + blocks[1].shape[0])]
+        for (c, r), b in zip(origins, blocks):
+            atlas[r:r + b.shape[0], c:c + b.shape[1]] = b
+        sky_c, sky_r = blocks[2].shape[1] + blocks[3].shape[1], origins[2][1]
+        atlas[sky_r:sky_r + 8, sky_c:sky_c + 8] = np.clip(210 * roof_lit, 0, 255)
+        self._sky = (np.float32(sky_c + 4), np.float32(sky_r + 4))
+        self.atlas = atlas
+        self._atlas_slots = [(o, (t.shape[1], t.shape[0]), res)
+                             for o, (t, res) in zip(origins, tiles)]
+
     def _canopy(self, rng, lit):
-        """Dense foliage of the row behind the fruit, one tile wide, repeated three times."""
+        """Dense foliage of the row behind the fruit: one tile, periodic along the row."""
         w = int(round(CANOPY_TILE[0] / TEX_RES))
         h = int(round(CANOPY_TILE[1] / TEX_RES))
         img = np.zeros((h, w, 3), np.float32)
@@ -145,8 +174,10 @@ class Renderer(object):
                      cv2.LINE_AA)
         fine = _noise_texture(rng, (h, w), 1.0)
         img *= (1.0 + 0.12 * fine)[:, :, None]
-        img = cv2.GaussianBlur(img, (0, 0), 1.0)
-        return np.concatenate([self._light(img, lit)] * 3, axis=1)
+        m = 8
+        img = cv2.GaussianBlur(np.concatenate([img[:, -m:], img, img[:, :m]], axis=1), (0, 0),
+                               1.0)[:, m:-m]
+        return self._light(img, lit)
 
     def _floor(self, rng, lit):
         img = np.zeros((500, 500, 3), np.float32)
@@ -224,79 +255,61 @@ class Renderer(object):
 
     # ------------------------------------------------------------------ background planes
     def _background(self, ctx):
+        """Canopy, aisle, floor and roof at half resolution (one remap from the atlas), scaled
+        up. Scene objects always lie between these planes, so they are drawn over the
+        background without a depth test against it."""
         cam = ctx.camera
+        key = ('half', cam.width, cam.height, cam.fx, cam.fy, cam.cx, cam.cy)
+        if key not in self._rays:
+            w2, h2 = (cam.width + 1) // 2, (cam.height + 1) // 2
+            xs = ((np.arange(w2) * 2 + 0.5 - cam.cx) / cam.fx).astype(np.float32)
+            ys = ((np.arange(h2) * 2 + 0.5 - cam.cy) / cam.fy).astype(np.float32)
+            self._rays[key] = (xs, ys)
+        xs, ys = self._rays[key]
         R, t = ctx.R, ctx.t
-        xs, ys = ctx.xs, ctx.ys
-        corners = np.array([[xs[0], ys[0], 1.0], [xs[-1], ys[0], 1.0], [xs[0], ys[-1], 1.0],
-                            [xs[-1], ys[-1], 1.0]])
-        depth = None
-        which = None
-        visible = []
+        comp = [np.float32(R[k, 0]) * xs[None, :] + np.float32(R[k, 1]) * ys[:, None] +
+                np.float32(R[k, 2]) for k in range(3)]        # map direction of every ray
+        depth, which = None, None
         for k, pl in enumerate(self.planes):
-            dist = pl.value - t[pl.axis]
-            row = R[pl.axis]                      # map component of ray = row . d
-            comp_c = corners.dot(row)
-            if not np.any(comp_c * dist > 0):     # the plane is behind at every corner
-                continue
-            comp = (np.float32(row[0]) * xs[None, :] + np.float32(row[1]) * ys[:, None] +
-                    np.float32(row[2]))
+            dist = np.float32(pl.value - t[pl.axis])
             with np.errstate(divide='ignore', invalid='ignore'):
-                d = np.float32(dist) / comp
+                d = dist / comp[pl.axis]
             d[~(d > NEAR)] = np.inf
             if depth is None:
-                depth, which = d, np.full(d.shape, k, np.int8)
+                depth, which = d, np.zeros(d.shape, np.int8)
             else:
                 closer = d < depth
-                depth = np.where(closer, d, depth)
+                depth[closer] = d[closer]
                 which[closer] = k
-            visible.append(k)
-        if depth is None:
-            ctx.img[:] = 200
-            return
-        for k in visible:
-            mask = which == k
-            if not mask.any():
+        mapx = np.full(depth.shape, self._sky[0], np.float32)
+        mapy = np.full(depth.shape, self._sky[1], np.float32)
+        finite = np.isfinite(depth)
+        for k, pl in enumerate(self.planes):
+            m = (which == k) & finite
+            if not m.any():
                 continue
-            warped = self._warp_plane(ctx, self.planes[k])
-            if mask.all():
-                ctx.img[:] = warped
+            full = bool(m.all())
+            dk = depth if full else depth[m]
+            a_axis, b_axis = (1, 2) if pl.axis == 0 else (0, 1)
+            ca = comp[a_axis] if full else comp[a_axis][m]
+            cb = comp[b_axis] if full else comp[b_axis][m]
+            a = np.float32(t[a_axis]) + dk * ca
+            b = np.float32(t[b_axis]) + dk * cb
+            w, h = pl.size
+            if pl.kind == 'canopy':          # along the row wraps; height is clamped
+                u = np.mod(a / np.float32(pl.res), w) + np.float32(pl.origin[0] + w / 2)
+                v = np.clip((np.float32(CANOPY_TILE[1] - 0.2) - b) / np.float32(pl.res), 0,
+                            h - 1) + np.float32(pl.origin[1])
             else:
-                ctx.img[mask] = warped[mask]
-        ctx.zbuf[:] = depth
-        sky = ~np.isfinite(depth)
-        if sky.any():
-            ctx.img[sky] = 210
-
-    def _warp_plane(self, ctx, pl):
-        """Homography texture -> image for plane pl; texture coordinates (col, row)."""
-        R, t, K = ctx.R, ctx.t, ctx.camera.K
-        h, w = pl.texture.shape[:2]
-        if pl.axis == 0:
-            # in-plane coords (y, z): p = (value, y, z); texture col = (y - y0)/res,
-            # row = (z_top - z)/res; canopy is three tiles wide, centred on the view
-            y_c = self._view_centre(ctx, pl)
-            tile = w / 3.0 * pl.res
-            y0 = math.floor(y_c / tile) * tile - tile
-            z_top = CANOPY_TILE[1] - 0.2
-            M = np.array([[0.0, 0.0, pl.value - t[0]], [1.0, 0.0, -t[1]], [0.0, 1.0, -t[2]]])
-            S = np.array([[pl.res, 0.0, y0], [0.0, -pl.res, z_top], [0.0, 0.0, 1.0]])
-            border = cv2.BORDER_REFLECT
-        else:
-            M = np.array([[1.0, 0.0, -t[0]], [0.0, 1.0, -t[1]], [0.0, 0.0, pl.value - t[2]]])
-            S = np.array([[pl.res, 0.0, 0.0], [0.0, pl.res, 0.0], [0.0, 0.0, 1.0]])
-            border = cv2.BORDER_WRAP
-        H = K.dot(R.T).dot(M).dot(S)          # texture pixel -> image pixel
-        return cv2.warpPerspective(pl.texture, H, (ctx.camera.width, ctx.camera.height),
-                                   flags=cv2.INTER_LINEAR, borderMode=border)
-
-    @staticmethod
-    def _view_centre(ctx, pl):
-        fwd = ctx.R[:, 2]
-        if abs(fwd[pl.axis]) > 1e-6:
-            s = (pl.value - ctx.t[pl.axis]) / fwd[pl.axis]
-            if s > 0:
-                return ctx.t[1] + s * fwd[1]
-        return ctx.t[1]
+                u = np.mod(a / np.float32(pl.res), w) + np.float32(pl.origin[0] + w / 2)
+                v = np.mod(b / np.float32(pl.res), h) + np.float32(pl.origin[1] + h / 2)
+            if full:
+                mapx, mapy = u, v
+            else:
+                mapx[m], mapy[m] = u, v
+        half = cv2.remap(self.atlas, mapx, mapy, cv2.INTER_LINEAR)
+        ctx.img[:] = cv2.resize(half, (cam.width, cam.height),
+                                interpolation=cv2.INTER_LINEAR)
 
     # ------------------------------------------------------------------ primitives
     def _sphere(self, ctx, f):
