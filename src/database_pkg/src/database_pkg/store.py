@@ -105,6 +105,26 @@ MIGRATIONS = (
         "CREATE INDEX pick_records_by_mission ON pick_records(mission_id, stamp)",
         "CREATE INDEX events_by_mission ON events(mission_id, stamp)",
     )),
+    # network_pkg's outbox: rows with uploaded = 0 are the queue (partial indices keep finding
+    # and counting them cheap whatever the size of the uploaded history). Missions are the only
+    # rows that change after insert: a change of started/ended/summary/site queues the mission
+    # again and bumps its revision, so the uploader only marks uploaded the revision it sent and
+    # the server keeps the highest revision.
+    (3, 'outbox: pending-row indices; a changed mission is queued again with a new revision', (
+        "ALTER TABLE missions ADD COLUMN revision INTEGER NOT NULL DEFAULT 0",
+        "CREATE INDEX missions_pending ON missions(uploaded) WHERE uploaded = 0",
+        "CREATE INDEX observations_pending ON observations(uploaded) WHERE uploaded = 0",
+        "CREATE INDEX pick_records_pending ON pick_records(uploaded) WHERE uploaded = 0",
+        "CREATE INDEX events_pending ON events(uploaded) WHERE uploaded = 0",
+        """CREATE TRIGGER missions_changed AFTER UPDATE OF started, ended, summary, site
+            ON missions
+            WHEN OLD.started IS NOT NEW.started OR OLD.ended IS NOT NEW.ended
+                 OR OLD.summary IS NOT NEW.summary OR OLD.site IS NOT NEW.site
+            BEGIN
+                UPDATE missions SET uploaded = 0, revision = OLD.revision + 1
+                WHERE id = NEW.id;
+            END""",
+    )),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 
