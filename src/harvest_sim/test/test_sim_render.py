@@ -182,3 +182,20 @@ def test_camera_info_geometry():
 def _scenarios():
     from sim_fixtures import SCENARIOS
     return SCENARIOS
+
+
+def test_cached_layer_gives_the_same_image_as_a_fresh_render():
+    s = scn.load_scenario(scn.resolve_scenario('dense_cluster', _scenarios()))
+    cam = camera_model.stereo_camera()
+    T = eye_poses(cart=s.track.picking_points[0])['stereo_left_optical']
+    fr = render.fruits_from_scenario(s)
+    moved = list(fr)
+    f = moved[2]
+    moved[2] = f._replace(position=f.position + [-0.05, 0.0, 0.02], moving=True)
+    r = render.Renderer(s)
+    r.render(cam, T, fr, ('left', 1))                   # fills the cache with the still scene
+    a = r.render(cam, T, moved, ('left', 1))            # layer reused, one fruit moving
+    b = render.Renderer(s).render(cam, T, [m._replace(moving=False) for m in moved],
+                                  ('left', 1))
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, r.render(cam, T, fr, ('left', 1)))

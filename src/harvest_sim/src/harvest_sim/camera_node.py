@@ -137,7 +137,7 @@ class SimCameraNode(object):
             cut = None if m.attached else np.array([m.cut_point.x, m.cut_point.y, m.cut_point.z])
             fruits.append(render.RenderFruit(i, np.array(p), m.radius, m.ripeness,
                                              self.scenario.fruits[i].pedicel_top, m.attached,
-                                             cut))
+                                             cut, m.held))
         key = tuple((f.index, round(f.position[0], 4), round(f.position[1], 4),
                      round(f.position[2], 4), f.attached) for f in fruits)
         with self._lock:

@@ -34,18 +34,21 @@ RIPENESS_COLOURS = ((0.0, (0.30, 0.55, 0.16)), (0.2, (0.45, 0.62, 0.18)),
                     (0.35, (0.75, 0.62, 0.22)), (0.55, (0.93, 0.45, 0.36)),
                     (0.7, (0.85, 0.19, 0.11)), (1.0, (0.70, 0.06, 0.04)))
 CALYX_RGB = (0.16, 0.36, 0.08)
+CALYX_COS = math.cos(0.62)       # the calyx lies within 0.62 rad of the top
 STEM_RGB = (0.33, 0.48, 0.20)
 PEDICEL_RADIUS = 0.0025
 TEX_RES = 0.002                  # m per texel of the canopy textures
 CANOPY_TILE = (1.6, 3.4)         # m: width along the row, height (z from -0.2)
 LABEL_LEAF, LABEL_STEM = 1000, 2000
+STATIC_CACHE = 4                 # camera poses whose fruit-free layer is kept
 
 RenderFruit = namedtuple('RenderFruit', 'index position radius ripeness pedicel_top attached '
-                                        'cut_point')
+                                        'cut_point moving', defaults=(False,))
 RenderFruit.__doc__ = """A fruit as the renderer needs it (map frame).
 
 index: stable integer (texture and label, label = index + 1); attached: still on its pedicel
-(hanging or held); cut_point: where its pedicel was cut (None if attached)."""
+(hanging or held); cut_point: where its pedicel was cut (None if attached); moving: held by the
+suction sleeve (drawn per frame; the other fruit are cached with the static scene)."""
 
 
 def fruit_albedo(ripeness):
@@ -120,6 +123,7 @@ class Renderer(object):
         self.stems = [(s.points, s.radius) for s in scenario.stems]
         self._noise = {}
         self._rays = {}
+        self._static = {}          # camera pose -> (image, depth, labels) without the fruit
 
     # ------------------------------------------------------------------ textures
     def _light(self, img_rgb_float, lit):
@@ -223,8 +227,48 @@ class Renderer(object):
         fruits: RenderFruit list (map frame); noise_key: (camera name, frame index) selects the
         deterministic noise frame, None renders without noise.
         """
-        ctx = _Frame(self, camera, np.asarray(T_map_cam, dtype=float), labels)
-        self._background(ctx)
+        T = np.asarray(T_map_cam, dtype=float)
+        ctx = _Frame(self, camera, T, labels)
+        still = [f for f in fruits if not f.moving]
+        key = (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy,
+               T.tobytes(), labels,
+               tuple((f.index, tuple(np.round(f.position, 5)), f.attached,
+                      None if f.cut_point is None else tuple(np.round(f.cut_point, 5)))
+                     for f in still))
+        layer = self._static.get(key)
+        if layer is None:
+            # everything but the moving (held) fruit depends on the camera pose and the still
+            # fruit only: keep that layer (image, depth, labels) and draw the moving fruit on a
+            # copy of it
+            self._background(ctx)
+            for points, radius in self.stems:
+                for a, b in zip(points[:-1], points[1:]):
+                    self._capsule(ctx, a, b, radius, STEM_RGB, LABEL_STEM)
+            for i, leaf in enumerate(self.scenario.leaves):
+                self._leaf(ctx, leaf, LABEL_LEAF + i)
+            self._fruits(ctx, still)
+            layer = (ctx.img.copy(), ctx.zbuf.copy(),
+                     None if ctx.labels is None else ctx.labels.copy())
+            if len(self._static) >= STATIC_CACHE:
+                self._static.pop(next(iter(self._static)))
+            self._static[key] = layer
+        else:
+            ctx.img[:], ctx.zbuf[:] = layer[0], layer[1]
+            if labels:
+                ctx.labels[:] = layer[2]
+        self._fruits(ctx, [f for f in fruits if f.moving])
+        img = ctx.img
+        if self.blur_sigma > 0:
+            img = cv2.GaussianBlur(img, (3, 3), self.blur_sigma)
+        if noise_key is not None and self.noise_sigma > 0:
+            bank = self.noise_frames(noise_key[0], camera.width, camera.height)
+            pos, neg = bank[int(noise_key[1]) % len(bank)]
+            img = cv2.subtract(cv2.add(img, pos), neg)
+        if labels:
+            return img, ctx.labels
+        return img
+
+    def _fruits(self, ctx, fruits):
         for f in fruits:
             self._sphere(ctx, f)
         for f in fruits:
@@ -237,21 +281,6 @@ class Renderer(object):
                 if f.cut_point is not None:
                     self._capsule(ctx, f.cut_point, f.pedicel_top, PEDICEL_RADIUS, STEM_RGB,
                                   LABEL_STEM)
-        for points, radius in self.stems:
-            for a, b in zip(points[:-1], points[1:]):
-                self._capsule(ctx, a, b, radius, STEM_RGB, LABEL_STEM)
-        for i, leaf in enumerate(self.scenario.leaves):
-            self._leaf(ctx, leaf, LABEL_LEAF + i)
-        img = ctx.img
-        if self.blur_sigma > 0:
-            img = cv2.GaussianBlur(img, (3, 3), self.blur_sigma)
-        if noise_key is not None and self.noise_sigma > 0:
-            bank = self.noise_frames(noise_key[0], camera.width, camera.height)
-            pos, neg = bank[int(noise_key[1]) % len(bank)]
-            img = cv2.subtract(cv2.add(img, pos), neg)
-        if labels:
-            return img, ctx.labels
-        return img
 
     # ------------------------------------------------------------------ background planes
     def _background(self, ctx):
@@ -336,39 +365,54 @@ class Renderer(object):
         if iy.size == 0:
             return
         zz = z[iy, ix]
-        P = np.stack([ctx.xs[u0 + ix] * zz, ctx.ys[v0 + iy] * zz, zz], axis=1)
-        n = (P - C.astype(np.float32)) / np.float32(r)
-        # fruit-fixed frame (the fruit hangs upright): up, and a horizontal reference
+        rx, ry = ctx.xs[u0 + ix], ctx.ys[v0 + iy]          # ray (rx, ry, 1) of each pixel
+        C32 = C.astype(np.float32)
+        ir = np.float32(1.0 / r)
+        n = np.stack([(rx * zz - C32[0]) * ir, (ry * zz - C32[1]) * ir, (zz - C32[2]) * ir],
+                     axis=1)
+        # fruit-fixed frame (the fruit hangs upright): up, and two horizontal axes
         up = ctx.R[2].astype(np.float32)                 # map z in camera coordinates
         e1 = ctx.R[0].astype(np.float32)                 # map x in camera coordinates
         e2 = np.cross(up, e1)
-        cos_t = np.clip(n.dot(up), -1.0, 1.0)
-        theta = np.arccos(cos_t)
-        phase = self.fruit_phase[int(f.index) % len(self.fruit_phase)]
-        phi = np.arctan2(n.dot(e2), n.dot(e1)) / (2 * math.pi) + phase
+        cos_t = n.dot(up)
+        a1, a2 = n.dot(e1), n.dot(e2)
+        # fine surface texture, tri-planar: three projections of one noise texture weighted by
+        # the squared normal components (which sum to 1); shifted per fruit
         th_n, tw_n = self.fruit_tex.shape
-        tex = self.fruit_tex[(theta * ((th_n - 1) / math.pi)).astype(np.int32),
-                             ((phi % 1.0) * tw_n).astype(np.int32) % tw_n]
+        phase = self.fruit_phase[int(f.index) % len(self.fruit_phase)]
+        k = np.float32((th_n - 1) * 0.5)
+        off = int(phase * tw_n)
+        i1, i2, i3 = ((a1 + 1.0) * k).astype(np.int32), ((a2 + 1.0) * k).astype(np.int32), \
+            ((cos_t + 1.0) * k).astype(np.int32)
+        T = self.fruit_tex
+        tex = (a1 * a1 * T[i2, (i3 + off) % tw_n] + a2 * a2 * T[i1, (i3 + off + th_n) % tw_n] +
+               cos_t * cos_t * T[i1, (i2 + off + 2 * th_n) % tw_n])
         albedo = _bgr(fruit_albedo(f.ripeness))
         green = _bgr(fruit_albedo(0.1))
         shoulder = (np.float32(0.6 * (1.0 - min(max(f.ripeness, 0.0), 1.0))) *
-                    np.clip(cos_t, 0, 1) ** 2)[:, None]
-        col = (albedo[None, :] * (1 - shoulder) + green[None, :] * shoulder) * \
+                    np.maximum(cos_t, 0.0) ** 2)[:, None]
+        out = (albedo[None, :] * (1 - shoulder) + green[None, :] * shoulder) * \
             (1.0 + 0.10 * tex)[:, None]
-        # calyx: five sepals round the top
-        ang = phi * (2 * math.pi)
-        sepal = np.abs(np.cos(2.5 * ang)) ** 0.6
-        calyx = theta < (0.18 + 0.42 * sepal) * (0.75 + 0.25 * (1.0 - f.ripeness))
-        col[calyx] = _bgr(CALYX_RGB) * (1.0 + 0.15 * tex[calyx, None])
+        # calyx: five sepals round the top (only the cap can hold sepal pixels)
+        cap = np.nonzero(cos_t > CALYX_COS)[0]
+        calyx = np.zeros(cos_t.shape, bool)
+        if cap.size:
+            theta = np.arccos(np.minimum(cos_t[cap], 1.0))
+            phi = np.arctan2(a2[cap], a1[cap]) + np.float32(phase * 2 * math.pi)
+            sepal = np.abs(np.cos(2.5 * phi)) ** 0.6
+            calyx[cap] = theta < (0.18 + 0.42 * sepal) * (0.75 + 0.25 * (1.0 - f.ripeness))
+            out[calyx] = _bgr(CALYX_RGB) * (1.0 + 0.15 * tex[calyx, None])
+        # Lambert + Blinn-Phong: n.h = (n.v + n.l) / |v + l|, v = -ray / |ray|
         l = -ctx.light_cam
-        diff = np.clip(n.dot(l), 0.0, None)[:, None]
-        v = -P / np.linalg.norm(P, axis=1)[:, None]
-        hvec = v + l[None, :]
-        hvec /= np.linalg.norm(hvec, axis=1)[:, None]
-        spec = np.clip((n * hvec).sum(axis=1), 0.0, None) ** 60 * np.float32(0.55)
-        spec[calyx] *= 0.1
-        out = col * (self.ambient_bgr + self.light_bgr * diff) + \
-            spec[:, None] * self.light_bgr[None, :]
+        nl = n.dot(l)
+        inv_len = 1.0 / np.sqrt(rx * rx + ry * ry + 1.0)
+        nv = -(n[:, 0] * rx + n[:, 1] * ry + n[:, 2]) * inv_len
+        vl = -(rx * l[0] + ry * l[1] + l[2]) * inv_len
+        nh = (nv + nl) / np.sqrt(np.maximum(2.0 + 2.0 * vl, 1e-6))
+        out *= (self.ambient_bgr + self.light_bgr * np.maximum(nl, 0.0)[:, None])
+        shiny = np.nonzero((nh > 0.88) & ~calyx)[0]
+        if shiny.size:
+            out[shiny] += (nh[shiny] ** 60 * np.float32(0.55))[:, None] * self.light_bgr[None, :]
         ctx.put(v0 + iy, u0 + ix, zz, out, int(f.index) + 1)
 
     def _leaf(self, ctx, leaf, label):
@@ -377,31 +421,47 @@ class Renderer(object):
         A = ctx.R.T.dot(leaf.axis)
         B = np.cross(N, A)
         hl, hw = leaf.length / 2.0, leaf.width / 2.0
-        corners = np.array([Lc + sa * hl * A + sb * hw * B for sa in (-1, 1) for sb in (-1, 1)])
-        if np.all(corners[:, 2] <= NEAR):
+        outline = np.concatenate([
+            Lc + np.outer(_LEAF_S * hl, A) + np.outer(_LEAF_W * hw, B),
+            Lc + np.outer(_LEAF_S[::-1] * hl, A) - np.outer(_LEAF_W[::-1] * hw, B)])
+        if np.all(outline[:, 2] <= NEAR):
             return
-        box = ctx.bbox_of_points(corners) if np.all(corners[:, 2] > NEAR) else ctx.full_box()
-        if box is None:
+        if np.all(outline[:, 2] > NEAR):
+            # rasterise the projected outline (exact for a planar shape up to the polygon's
+            # sampling, drawn 1 px wider), then intersect rays only inside it
+            uv = ctx.camera.project(outline)
+            box = ctx.clip_box(int(math.floor(uv[:, 0].min())) - 2,
+                               int(math.ceil(uv[:, 0].max())) + 3,
+                               int(math.floor(uv[:, 1].min())) - 2,
+                               int(math.ceil(uv[:, 1].max())) + 3)
+            if box is None:
+                return
+            u0, u1, v0, v1 = box
+            mask = np.zeros((v1 - v0, u1 - u0), np.uint8)
+            poly = np.round((uv - [u0, v0]) * 16).astype(np.int32)
+            cv2.fillPoly(mask, [poly], 1, cv2.LINE_8, 4)
+            cv2.polylines(mask, [poly], True, 1, 2, cv2.LINE_8, 4)
+            iy, ix = np.nonzero(mask)
+        else:
+            u0, u1, v0, v1 = ctx.full_box()
+            iy, ix = np.nonzero(np.ones((v1 - v0, u1 - u0), bool))
+        if iy.size == 0:
             return
-        u0, u1, v0, v1 = box
-        X = ctx.xs[u0:u1][None, :]
-        Y = ctx.ys[v0:v1][:, None]
+        X = ctx.xs[u0 + ix]
+        Y = ctx.ys[v0 + iy]
         denom = X * np.float32(N[0]) + Y * np.float32(N[1]) + np.float32(N[2])
         with np.errstate(divide='ignore', invalid='ignore'):
             z = np.float32(Lc.dot(N)) / denom
-        z[~np.isfinite(z)] = -1.0
-        zb = ctx.zbuf[v0:v1, u0:u1]
-        ok = (z > NEAR) & (z < zb)
-        iy, ix = np.nonzero(ok)
+        ok = (z > NEAR) & (z < ctx.zbuf[v0 + iy, u0 + ix])
+        iy, ix, z = iy[ok], ix[ok], z[ok]
         if iy.size == 0:
             return
-        zz = z[iy, ix]
+        zz = z
         P = np.stack([ctx.xs[u0 + ix] * zz, ctx.ys[v0 + iy] * zz, zz], axis=1)
         D = P - Lc.astype(np.float32)
         s = D.dot(A.astype(np.float32)) / np.float32(hl)
         w = D.dot(B.astype(np.float32)) / np.float32(hw)
-        prof = np.sqrt(np.clip(1.0 - s * s, 0.0, None)) * (1.0 - 0.3 * s) * \
-            (1.0 + 0.07 * np.sin(s * 9.0 * math.pi))
+        prof = leaf_profile(s)
         inside = (np.abs(s) <= 1.0) & (np.abs(w) <= prof)
         if not inside.any():
             return
@@ -473,11 +533,19 @@ class Renderer(object):
         nz = dz[iy, ix] - front[iy, ix]
         n = np.stack([nx, ny, nz], axis=1)
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-9)[:, None]
-        diff = np.clip(n.dot(-ctx.light_cam), 0.0, None)[:, None]
+        diff = np.maximum(n.dot(-ctx.light_cam), 0.0)[:, None]
         out = _bgr(rgb)[None, :] * (self.ambient_bgr + self.light_bgr * diff)
         ctx.put(v0 + iy, u0 + ix, zz, out, label)
 
 
+def leaf_profile(s):
+    """Half width (0..1) of a tomato leaflet at s in [-1 (base), 1 (tip)], serrated edge."""
+    return np.float32(0.89) * np.sqrt(np.maximum(1.0 - s * s, 0.0)) * (1.0 - 0.3 * s) * \
+        (1.0 + 0.07 * np.sin(s * 9.0 * math.pi))
+
+
+_LEAF_S = np.linspace(-1.0, 1.0, 41)
+_LEAF_W = leaf_profile(_LEAF_S).astype(float) * 1.02
 _CUBE = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
                  dtype=float)
 
@@ -516,7 +584,9 @@ class _Frame(object):
 
     def put(self, rows, cols, z, bgr, label):
         self.zbuf[rows, cols] = z
-        self.img[rows, cols] = np.clip(bgr * 255.0, 0, 255).astype(np.uint8)
+        v = bgr * np.float32(255.0)
+        np.clip(v, 0.0, 255.0, out=v)
+        self.img[rows, cols] = v.astype(np.uint8)
         if self.labels is not None:
             self.labels[rows, cols] = label
 
