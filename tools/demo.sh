@@ -1,6 +1,6 @@
 #!/bin/bash
 # The main job: runs the simulated continuous harvest headless and prints the mission summary.
-set -euo pipefail
+set -eo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export PATH="$ROOT/.venv/bin:/usr/bin:/bin:$PATH"
 cd "$ROOT"

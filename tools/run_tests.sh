@@ -3,7 +3,7 @@
 #   catkin_lint, the Python 3.8 compatibility gate (vermin), pytest (pure logic),
 #   and the rostests (`catkin_make run_tests`).
 # Expects tools/setup.sh to have run (make test does that).
-set -uo pipefail
+set -o pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 VENV="$ROOT/.venv"
 export PATH="$VENV/bin:/usr/bin:/bin:$PATH"

@@ -69,7 +69,10 @@ class MissionContext(object):
 
 def _status_text(state):
     """The text the action server gave with its last goal status, when the client exposes it."""
-    client = getattr(state, '_action_client', None)
+    text = getattr(state, 'goal_status_text', None)   # control_pkg's fallback SimpleActionState
+    if text:
+        return text
+    client = getattr(state, '_action_client', None)     # smach_ros
     if client is None:
         return ''
     try:

@@ -3,7 +3,8 @@
 Node `self_test_server`
   Action server: self_test (harvest_msgs/Start)
   Params: ~components: list of {name, type, topic, timeout}; type is
-    - `action`: an action server is up (its <topic>/status is published by some node)
+    - `action`: an action server is up (its <topic>/status is published by some node); the
+      graph components wait up to their timeout (default 5 s) for start-up
     - `topic`: messages arrive on <topic> within timeout seconds (cameras, point cloud)
     - `status`: a diagnostic_msgs/DiagnosticStatus on <topic> has level OK (the motion controller
       enabled and fault-free, published latched by motion_pkg's motion_server)
@@ -68,33 +69,82 @@ class SelfTestServer(object):
         pubs, subs, _ = self._master.getSystemState()
         return dict(pubs), dict(subs)
 
-    def check(self, comp):
+    GRAPH_TYPES = ('action', 'subscriber')
+
+    def _graph_missing(self, comps):
+        """One look at the master: {name: reason} for graph components (action/subscriber) not yet up."""
+        pubs, subs, _ = self._master.getSystemState()
+        pubs, subs = dict(pubs), dict(subs)
+        missing = {}
+        for comp in comps:
+            topic = rospy.resolve_name(comp['topic'])
+            if comp['type'] == 'action' and not pubs.get(topic + '/status'):
+                missing[comp['name']] = 'action server %s is not running' % topic
+            elif comp['type'] == 'subscriber' and not subs.get(topic):
+                missing[comp['name']] = 'nothing subscribes %s' % topic
+        return missing
+
+    def check_graph(self, comps):
+        """Wait (each up to its timeout) for the action servers and subscribers to appear.
+
+        The master has no notifications, so its state is read twice a second until every
+        component is up or its timeout has passed. Returns {name: (ok, reason)}.
+        """
+        results = {}
+        pending = list(comps)
+        start = rospy.get_time()
+        rate = rospy.Rate(2.0)
+        while pending and not rospy.is_shutdown():
+            try:
+                missing = self._graph_missing(pending)
+            except Exception as exc:  # noqa: BLE001 - master unreachable
+                missing = {c['name']: 'master unreachable: %s' % exc for c in pending}
+            elapsed = rospy.get_time() - start
+            still = []
+            for comp in pending:
+                if comp['name'] not in missing:
+                    results[comp['name']] = (True, '')
+                elif elapsed >= comp['timeout']:
+                    results[comp['name']] = (False, missing[comp['name']])
+                else:
+                    still.append(comp)
+            pending = still
+            if pending:
+                try:
+                    rate.sleep()
+                except rospy.ROSInterruptException:
+                    break
+        for comp in pending:
+            results[comp['name']] = (False, 'not checked: shutting down')
+        return results
+
+    def check_topic(self, comp):
+        """A topic or status component: wait for one message within its timeout."""
         topic = rospy.resolve_name(comp['topic'])
-        kind = comp['type']
         try:
-            if kind == 'action':
-                pubs, _ = self._graph()
-                if pubs.get(topic + '/status'):
-                    return True, ''
-                return False, 'action server %s is not running' % topic
-            if kind == 'subscriber':
-                _, subs = self._graph()
-                if subs.get(topic):
-                    return True, ''
-                return False, 'nothing subscribes %s' % topic
-            if kind == 'topic':
+            if comp['type'] == 'topic':
                 rospy.wait_for_message(topic, rospy.AnyMsg, timeout=comp['timeout'])
                 return True, ''
-            if kind == 'status':
-                msg = rospy.wait_for_message(topic, DiagnosticStatus, timeout=comp['timeout'])
-                if msg.level == DiagnosticStatus.OK:
-                    return True, ''
-                return False, '%s reports: %s' % (topic, msg.message or 'level %d' % msg.level)
         except rospy.ROSException:
             return False, 'no message on %s within %.1f s' % (topic, comp['timeout'])
-        except Exception as exc:  # noqa: BLE001 - the master may be unreachable
-            return False, 'check of %s failed: %s' % (topic, exc)
-        return False, 'unknown component type %s' % kind
+        # a status: wait until it reports OK (a controller may still be connecting at start-up)
+        ok_event = threading.Event()
+        last = []
+
+        def on_status(msg):
+            last[:] = [msg]
+            if msg.level == DiagnosticStatus.OK:
+                ok_event.set()
+
+        sub = rospy.Subscriber(topic, DiagnosticStatus, on_status, queue_size=10)
+        try:
+            if ok_event.wait(comp['timeout']):
+                return True, ''
+        finally:
+            sub.unregister()
+        if not last:
+            return False, 'no message on %s within %.1f s' % (topic, comp['timeout'])
+        return False, '%s reports: %s' % (topic, last[0].message or 'level %d' % last[0].level)
 
     def execute(self, goal):
         wanted = set(goal.components)
@@ -106,20 +156,27 @@ class SelfTestServer(object):
                                      'unknown components requested')
             return
         comps = [c for c in self.components if not wanted or c['name'] in wanted]
-        results = [None] * len(comps)
+        outcome = {}
         lock = threading.Lock()
 
-        def run(i, comp):
-            ok, reason = self.check(comp)
+        def run(comp):
+            ok, reason = self.check_topic(comp)
             with lock:
-                results[i] = (comp['name'], ok, reason)
-                self._server.publish_feedback(StartFeedback(component=comp['name'], ok=ok))
+                outcome[comp['name']] = (ok, reason)
 
-        threads = [threading.Thread(target=run, args=(i, c)) for i, c in enumerate(comps)]
+        topic_comps = [c for c in comps if c['type'] not in self.GRAPH_TYPES]
+        threads = [threading.Thread(target=run, args=(c,)) for c in topic_comps]
         for t in threads:
             t.start()
+        graph = self.check_graph([c for c in comps if c['type'] in self.GRAPH_TYPES])
         for t in threads:
             t.join()
+        outcome.update(graph)
+        results = []
+        for comp in comps:
+            ok, reason = outcome[comp['name']]
+            results.append((comp['name'], ok, reason))
+            self._server.publish_feedback(StartFeedback(component=comp['name'], ok=ok))
         success, failed, reasons, message = summarize(results)
         result = StartResult(success=success, failed=failed, reasons=reasons, message=message)
         if success:

@@ -183,6 +183,7 @@ class SimpleActionState(smach.State):
         self._goal_done = False
         self._goal_status = None
         self._goal_result = None
+        self.goal_status_text = ''   # text of the last goal's final status (the server's reason)
         self._exec_expired = False
         self._cancel_expired = False
         self._ud = None
@@ -318,6 +319,7 @@ class SimpleActionState(smach.State):
             self._goal_done = False
             self._goal_status = None
             self._goal_result = None
+            self.goal_status_text = ''
             self._exec_expired = False
             self._cancel_expired = False
             self._ud = ud
@@ -327,10 +329,12 @@ class SimpleActionState(smach.State):
                 return
             status = handle.get_goal_status()
             result = handle.get_result()
+            text = handle.get_goal_status_text()
             with self._cond:
                 if self._goal_id == goal_id:
                     self._goal_done = True
                     self._goal_status = status
+                    self.goal_status_text = text
                     self._goal_result = result
                     self._cond.notify_all()
 
