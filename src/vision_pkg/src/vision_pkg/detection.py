@@ -35,7 +35,7 @@ DEFAULTS = {
     'hue_max': 42,              # fruit hue band: OpenCV hue (0..180) <= hue_max or >= hue_wrap
     'hue_wrap': 165,
     'sat_min': 80,              # HSV saturation floor of fruit skin (0..255)
-    'val_min': 20,              # HSV value floor (0..255)
+    'val_min': 10,              # HSV value floor (0..255)
     'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
     'min_fill_green': 0.6,      # same for green-coloured fruit (stricter: leaves are green)
     'min_inside': 0.85,         # fraction of the part's pixels inside its fitted circle
