@@ -489,6 +489,7 @@ def build_state_machine(context, estop_event, resume_event):
         cc = smach.Concurrence(outcomes=['targets', 'none', 'aborted', 'preempted'], default_outcome='aborted',
                                input_keys=['picking_point', 'track_position'], output_keys=['targets'],
                                outcome_cb=outcome_cb)
+        cc.userdata.targets = []
         with cc:
             smach.Concurrence.add('DO_TOMATO_SCAN', action(
                 'DO_TOMATO_SCAN', 'tomato_scan', TomatoScanAction, goal_cb=scan_goal_cb,
