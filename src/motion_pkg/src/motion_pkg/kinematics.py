@@ -135,7 +135,8 @@ def segment_distance(p1, q1, p2, q2):
         else:
             b = d1.dot(d2)
             denom = a * e - b * b
-            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > eps else 0.0
+            # parallel segments have denom ~ 0 relative to a*e (absolute tests fail for short ones)
+            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 1e-12 * a * e else 0.0
             t = (b * s + f) / e
             if t < 0.0:
                 t, s = 0.0, min(max(-c / a, 0.0), 1.0)
