@@ -35,6 +35,7 @@ RIPENESS_COLOURS = ((0.0, (0.30, 0.55, 0.16)), (0.2, (0.45, 0.62, 0.18)),
                     (0.7, (0.85, 0.19, 0.11)), (1.0, (0.70, 0.06, 0.04)))
 CALYX_RGB = (0.16, 0.36, 0.08)
 CALYX_COS = math.cos(0.62)       # the calyx lies within 0.62 rad of the top
+SPECULAR = 0.35                  # strength of the highlight on the fruit skin
 STEM_RGB = (0.33, 0.48, 0.20)
 PEDICEL_RADIUS = 0.0025
 TEX_RES = 0.002                  # m per texel of the canopy textures
@@ -79,10 +80,21 @@ def _noise_texture(rng, shape, blur_sigma):
     return n / max(float(n.std()), 1e-6)
 
 
-def _wrapped_ellipse(img, centre, axes, angle, colour, width_px):
-    x, y = centre
+def _wrapped_leaflet(img, centre, length, aspect, angle, colour, width_px):
+    """A serrated leaflet (leaf_profile) with a lighter midrib, wrapped along x."""
+    s = np.linspace(-1.0, 1.0, 25)
+    half = leaf_profile(s).astype(float) * aspect * length / 2.0
+    local = np.concatenate([np.stack([s * length / 2, half], 1),
+                            np.stack([s[::-1] * length / 2, -half[::-1]], 1)])
+    c, si = math.cos(angle), math.sin(angle)
+    pts = local.dot(np.array([[c, si], [-si, c]])) + centre
+    rib = np.array([[-c, -si], [c, si]]) * length * 0.45 + centre
+    light = tuple(min(v * 1.35, 1.0) for v in colour)
     for dx in (-width_px, 0, width_px):
-        cv2.ellipse(img, (int(x + dx), int(y)), axes, angle, 0, 360, colour, -1, cv2.LINE_AA)
+        off = np.array([dx, 0.0])
+        cv2.fillPoly(img, [np.round((pts + off) * 4).astype(np.int32)], colour, cv2.LINE_AA, 2)
+        cv2.line(img, tuple(int(v) for v in np.round((rib[0] + off) * 4)),
+                 tuple(int(v) for v in np.round((rib[1] + off) * 4)), light, 1, cv2.LINE_AA, 2)
 
 
 class _Plane(object):
@@ -164,23 +176,30 @@ class Renderer(object):
         w = int(round(CANOPY_TILE[0] / TEX_RES))
         h = int(round(CANOPY_TILE[1] / TEX_RES))
         img = np.zeros((h, w, 3), np.float32)
-        img[:] = (0.07, 0.14, 0.05)
-        for _ in range(int(w * h / 900)):
-            g = rng.uniform(0.25, 0.75)
-            col = (0.10 + 0.25 * g * rng.uniform(0.6, 1.0), 0.18 + 0.42 * g,
-                   0.05 + 0.12 * g * rng.uniform(0.5, 1.0))
-            ax = (int(rng.uniform(8, 45)), int(rng.uniform(4, 18)))
-            _wrapped_ellipse(img, (rng.uniform(0, w), rng.uniform(0, h)), ax,
-                             rng.uniform(0, 180), col, w)
-        for _ in range(6):       # support twine and plant stems
-            x = int(rng.uniform(0, w))
-            cv2.line(img, (x, 0), (x + int(rng.uniform(-20, 20)), h), (0.75, 0.72, 0.6), 2,
-                     cv2.LINE_AA)
+        img[:] = (0.05, 0.10, 0.04)
+        m = 8
+        # three depth layers of leaflets: far ones darker, smaller and blurred
+        for shade, size, count, blur in ((0.5, 0.6, 500, 2.0), (0.75, 0.8, 500, 1.2),
+                                         (1.0, 1.0, 420, 0.0)):
+            for _ in range(count):
+                g = rng.uniform(0.3, 0.8) * shade
+                col = (0.08 + 0.22 * g * rng.uniform(0.6, 1.0), 0.14 + 0.45 * g,
+                       0.04 + 0.12 * g * rng.uniform(0.5, 1.0))
+                _wrapped_leaflet(img, (rng.uniform(0, w), rng.uniform(0, h)),
+                                 rng.uniform(30, 110) * size, rng.uniform(0.35, 0.5),
+                                 rng.uniform(0, 2 * math.pi), col, w)
+            if shade == 0.75:
+                for _ in range(6):       # support twine and plant stems between the layers
+                    x = int(rng.uniform(0, w))
+                    cv2.line(img, (x, 0), (x + int(rng.uniform(-20, 20)), h), (0.7, 0.68, 0.56),
+                             2, cv2.LINE_AA)
+            if blur > 0:
+                img = cv2.GaussianBlur(np.concatenate([img[:, -m:], img, img[:, :m]], axis=1),
+                                       (0, 0), blur)[:, m:-m]
         fine = _noise_texture(rng, (h, w), 1.0)
         img *= (1.0 + 0.12 * fine)[:, :, None]
-        m = 8
         img = cv2.GaussianBlur(np.concatenate([img[:, -m:], img, img[:, :m]], axis=1), (0, 0),
-                               1.0)[:, m:-m]
+                               0.8)[:, m:-m]
         return self._light(img, lit)
 
     def _floor(self, rng, lit):
@@ -392,7 +411,7 @@ class Renderer(object):
         shoulder = (np.float32(0.6 * (1.0 - min(max(f.ripeness, 0.0), 1.0))) *
                     np.maximum(cos_t, 0.0) ** 2)[:, None]
         out = (albedo[None, :] * (1 - shoulder) + green[None, :] * shoulder) * \
-            (1.0 + 0.10 * tex)[:, None]
+            (1.0 + np.float32(0.14) * tex)[:, None]
         # calyx: five sepals round the top (only the cap can hold sepal pixels)
         cap = np.nonzero(cos_t > CALYX_COS)[0]
         calyx = np.zeros(cos_t.shape, bool)
@@ -410,9 +429,10 @@ class Renderer(object):
         vl = -(rx * l[0] + ry * l[1] + l[2]) * inv_len
         nh = (nv + nl) / np.sqrt(np.maximum(2.0 + 2.0 * vl, 1e-6))
         out *= (self.ambient_bgr + self.light_bgr * np.maximum(nl, 0.0)[:, None])
-        shiny = np.nonzero((nh > 0.88) & ~calyx)[0]
+        shiny = np.nonzero((nh > 0.9) & ~calyx)[0]
         if shiny.size:
-            out[shiny] += (nh[shiny] ** 60 * np.float32(0.55))[:, None] * self.light_bgr[None, :]
+            out[shiny] += (nh[shiny] ** 80 * np.float32(SPECULAR))[:, None] * \
+                self.light_bgr[None, :]
         ctx.put(v0 + iy, u0 + ix, zz, out, int(f.index) + 1)
 
     def _leaf(self, ctx, leaf, label):
