@@ -309,18 +309,19 @@ def stop_process(proc, sig=signal.SIGTERM):
 
 # ------------------------------------------------------------------------- demo farm
 
-def demo_farm(store_paths, t0, days=6, points=16, seed=3):
-    """Two robots working one row over ``days`` days: fruit ripening linearly, picked when
-    ripe. ``store_paths``: {robot name: store path}. Returns the local date after the last day.
+def demo_farm(store_paths, t0, days=8, points=18, seed=3):
+    """Robots taking turns on one row for ``days`` days: fruit ripening linearly, at most two
+    picked per point and visit (so ripe fruit builds up). ``store_paths``: {robot: path}.
+    Returns the local (UTC) date of the day after the last one.
     """
     rng = random.Random(seed)
     fruits = []
     for k in range(points):
-        for _ in range(rng.choice([0, 2, 3, 4, 5, 6]) if k % 7 else 0):
+        for _ in range(rng.choice([2, 4, 6, 8, 10]) if k % 9 else 0):
             fruits.append(dict(point=k, pos=(0.55 + rng.uniform(-0.1, 0.1),
-                                             rng.uniform(-0.2, 0.2),
+                                             rng.uniform(-0.22, 0.22),
                                              0.85 + rng.uniform(0.0, 0.25)),
-                               s0=rng.uniform(0.0, 0.8), rate=rng.uniform(0.05, 0.12),
+                               s0=rng.uniform(-0.3, 0.8), rate=rng.uniform(0.05, 0.15),
                                picked=False))
     robots = sorted(store_paths)
     stores = dict((r, Store(p, synchronous='NORMAL')) for r, p in store_paths.items())
@@ -332,24 +333,21 @@ def demo_farm(store_paths, t0, days=6, points=16, seed=3):
             t = t0 + d * DAY
             store.ensure_mission(mission_id, started=t, site='row1')
             for k in range(points):
-                tp = 0.5 * k
-                seen = [f for f in fruits if f['point'] == k and not f['picked']]
-                obs = []
-                for i, f in enumerate(seen):
-                    score = min(1.0, f['s0'] + f['rate'] * d)
-                    pos = (f['pos'][0], f['pos'][1], f['pos'][2])
-                    obs.append(tomato(i, pos, round(score, 3), t + 60.0 * k))
+                seen = [f for f in fruits if f['point'] == k and not f['picked']
+                        and f['s0'] + f['rate'] * d >= 0.0]
+                obs = [tomato(i, f['pos'], round(min(1.0, f['s0'] + f['rate'] * d), 3),
+                              t + 60.0 * k) for i, f in enumerate(seen)]
                 if obs:
-                    store.add_observations(mission_id, k, tp, obs, site='row1')
-                for i, (f, o) in enumerate(zip(seen, obs)):
-                    if o['ripeness_score'] >= 0.7:
-                        ok = rng.random() < 0.8
-                        if ok:
-                            f['picked'] = True
-                        store.add_pick_record(pick(mission_id, k, i, o['position'],
-                                                   t + 60.0 * k + 20.0 + i,
-                                                   outcome=0 if ok else 1,
-                                                   cycle_time=rng.uniform(22.0, 40.0)))
+                    store.add_observations(mission_id, k, 0.5 * k, obs, site='row1')
+                ripe = [(i, f, o) for i, (f, o) in enumerate(zip(seen, obs))
+                        if o['ripeness_score'] >= 0.7]
+                for i, f, o in ripe[:2]:
+                    ok = rng.random() < 0.8
+                    f['picked'] = ok
+                    store.add_pick_record(pick(mission_id, k, i, o['position'],
+                                               t + 60.0 * k + 20.0 + i,
+                                               outcome=0 if ok else 1,
+                                               cycle_time=rng.uniform(22.0, 40.0)))
             store.end_mission(mission_id, t + 60.0 * points + 600.0, 'day %d done' % d)
     finally:
         for s in stores.values():
@@ -376,16 +374,16 @@ def chromium_run(url, workdir, extra, timeout=60):
 
 
 def screenshot(out_path, workdir=None):
-    """Run a demo farm (two robots, six days), serve it and screenshot the page."""
+    """Run a demo farm (two robots, eight days), serve it and screenshot the page."""
     from network_pkg.farm_server.db import FarmDB
     workdir = workdir or tempfile.mkdtemp(prefix='net_shot_')
     db_url = 'sqlite:///' + os.path.join(workdir, 'farm.db')
     db = FarmDB(db_url)
     tokens = dict((r, db.add_robot(r)) for r in ('robot_a', 'robot_b'))
     db.dispose()
-    t0 = time.time() - 6 * DAY
+    t0 = time.time() - 8 * DAY
     paths = dict((r, os.path.join(workdir, '%s.db' % r)) for r in tokens)
-    day = demo_farm(paths, t0)
+    day = demo_farm(paths, t0, days=8)
     server = FarmServer(db_url, workdir).start()
     try:
         for r, p in paths.items():

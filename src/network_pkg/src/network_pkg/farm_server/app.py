@@ -14,6 +14,7 @@ from typing import Optional
 
 import sqlalchemy.exc
 from fastapi import Depends, FastAPI, HTTPException, Query
+from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
@@ -142,6 +143,14 @@ def create_app(farm_db, fusion_cfg=None, settings=None):
 
     def today():
         return fusion.day_of(time.time(), fusion_cfg)
+
+    @app.exception_handler(RequestValidationError)
+    def _invalid(_request, exc):
+        # the field at fault and why; not the offending input (it may be huge, or NaN that
+        # JSON cannot carry)
+        errors = [{'loc': list(e.get('loc', ())), 'msg': e.get('msg', ''),
+                   'type': e.get('type', '')} for e in exc.errors()[:20]]
+        return JSONResponse(status_code=422, content={'detail': errors})
 
     @app.exception_handler(sqlalchemy.exc.OperationalError)
     def _db_unavailable(_request, exc):

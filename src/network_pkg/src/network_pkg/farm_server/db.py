@@ -285,14 +285,29 @@ class FarmDB(object):
 
     # -------------------------------------------------------------- uploads
 
-    def store_batch(self, robot, batch):
+    def store_batch(self, robot, batch, attempts=3):
         """Store one batch atomically and idempotently (upsert by id).
 
         ``batch`` maps table name -> list of row dicts (wire format, without ``robot``).
         Record rows are immutable: an id already stored is left alone (first write wins).
-        A mission row replaces the stored one only with a higher ``revision``.
+        A mission row replaces the stored one only with a higher ``revision`` (same robot).
         Returns {'inserted': {table: n}, 'duplicates': n, 'rows': n}.
+
+        New rows are found by reading which ids exist, then inserted with a plain multi-row
+        INSERT (SQLAlchemy's "insertmanyvalues": one statement per 1000 rows on PostgreSQL;
+        an ON CONFLICT clause would fall back to one round trip per row). SQLite writers are
+        serialised, so the read is exact there; on PostgreSQL a concurrent upload of the same
+        new ids (a retry racing its original) raises IntegrityError: the whole transaction is
+        rolled back and tried again, and then sees those rows as existing.
         """
+        for attempt in range(attempts):
+            try:
+                return self._store_batch(robot, batch)
+            except sa.exc.IntegrityError:
+                if attempt == attempts - 1:
+                    raise
+
+    def _store_batch(self, robot, batch):
         now = time.time()
         inserted = {}
         duplicates = 0
@@ -317,7 +332,10 @@ class FarmDB(object):
                             sa.select(table.c.id).where(table.c.id.in_(chunk))))
                     values = [self._row_values(name, robot, r, now) for r in rows]
                     new = [v for v in values if v['id'] not in existing]
-                    if name == 'missions':
+                    if new:
+                        conn.execute(table.insert(), new)
+                    if name == 'missions' and len(new) < len(values):
+                        # known missions: keep the highest revision, never another robot's
                         stmt = self._insert(table)
                         stmt = stmt.on_conflict_do_update(
                             index_elements=[table.c.id],
@@ -325,10 +343,7 @@ class FarmDB(object):
                                 'started', 'ended', 'site', 'summary', 'revision', 'received')),
                             where=sa.and_(table.c.revision < stmt.excluded.revision,
                                           table.c.robot == stmt.excluded.robot))
-                        conn.execute(stmt, values)
-                    elif new:
-                        conn.execute(self._insert(table).on_conflict_do_nothing(
-                            index_elements=[table.c.id]), new)
+                        conn.execute(stmt, [v for v in values if v['id'] in existing])
                     inserted[name] = len(new)
                     duplicates += len(values) - len(new)
                 robots = TABLES['robots']
@@ -371,12 +386,9 @@ class FarmDB(object):
             return dict((name, conn.execute(sa.select(sa.func.count()).select_from(
                 TABLES[name])).scalar()) for name in RECORD_TABLES)
 
-    def fusion_input(self, until=None):
-        """(missions, observations, pick_records) as plain dicts for the fusion module.
-
-        ``until``: only rows whose ``created`` wall time is before it (None = everything).
-        Only the columns fusion needs are read.
-        """
+    def fusion_input(self):
+        """(missions, observations, pick_records) as plain dicts for the fusion module
+        (only the columns fusion needs)."""
         m, o, p = TABLES['missions'], TABLES['observations'], TABLES['pick_records']
         with self.engine.connect() as conn:
             missions = [dict(r) for r in conn.execute(sa.select(
@@ -385,14 +397,10 @@ class FarmDB(object):
             q = sa.select(o.c.id, o.c.robot, o.c.mission_id, o.c.picking_point,
                           o.c.track_position, o.c.x, o.c.y, o.c.z, o.c.frame_id,
                           o.c.ripeness_stage, o.c.ripeness_score, o.c.stamp, o.c.created)
-            if until is not None:
-                q = q.where(o.c.created < until)
             observations = [dict(r) for r in conn.execute(q.order_by(o.c.created)).mappings()]
             q = sa.select(p.c.id, p.c.robot, p.c.mission_id, p.c.picking_point, p.c.x, p.c.y,
                           p.c.z, p.c.frame_id, p.c.outcome, p.c.cycle_time, p.c.stamp,
                           p.c.created)
-            if until is not None:
-                q = q.where(p.c.created < until)
             picks = [dict(r) for r in conn.execute(q).mappings()]
         return missions, observations, picks
 

@@ -486,7 +486,7 @@ def fuse(missions, observations, picks, cfg, day=None):
                                      start=start))
 
     rows = {}
-    scans = {}          # (row, robot, mission, point) -> [time, sightings]
+    scans = {}          # (row, robot, mission, point, created) -> [time, sightings]
     scan_track = {}     # (robot, mission, point) -> track position (for pick records)
     skipped = 0
     for o in observations:
@@ -500,7 +500,9 @@ def fuse(missions, observations, picks, cfg, day=None):
         point = r.point(o['picking_point'])
         point.positions.append(o['track_position'])
         scan_track[(o['robot'], o['mission_id'], o['picking_point'])] = o['track_position']
-        key = (row, o['robot'], o['mission_id'], o['picking_point'])
+        # one scan = one store transaction (database_pkg writes a scan's tomatoes together,
+        # with one `created` time); a mission may scan the same point again later
+        key = (row, o['robot'], o['mission_id'], o['picking_point'], o['created'])
         entry = scans.get(key)
         if entry is None:
             entry = scans[key] = [t, []]
@@ -515,7 +517,7 @@ def fuse(missions, observations, picks, cfg, day=None):
 
     # one timeline per row: scans and successful picks, in time order (scans first on ties)
     timeline = []
-    for (row, _robot, _mission, pp), (t, sightings) in scans.items():
+    for (row, _robot, _mission, pp, _created), (t, sightings) in scans.items():
         rows[row].point(pp).scans.append(t)
         timeline.append((t, 0, row, sightings))
     pick_list = []
