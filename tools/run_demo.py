@@ -42,7 +42,7 @@ def ground_truth_counts(fruits_msg):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--scenario', default=os.environ.get('HARVEST_SCENARIO', 'default'))
-    parser.add_argument('--time-scale', type=float, default=float(os.environ.get('HARVEST_TIME_SCALE', '5')))
+    parser.add_argument('--time-scale', type=float, default=float(os.environ.get('HARVEST_TIME_SCALE', '2')))
     parser.add_argument('--timeout', type=float, default=DEFAULT_TIMEOUT, help='wall seconds')
     parser.add_argument('--log', default='demo.log', help='roslaunch output file')
     args = parser.parse_args()

@@ -43,7 +43,7 @@ DEFAULTS = {
         'end_effector': 'end_effector', 'visual_servo': 'visual_servo',
     },
     'timeouts': {
-        'self_test': 60.0, 'move_base': 180.0, 'tomato_scan': 30.0, 'spatial_temporal': 30.0,
+        'self_test': 300.0, 'move_base': 180.0, 'tomato_scan': 30.0, 'spatial_temporal': 30.0,
         'kinematics': 5.0, 'move_robot': 60.0, 'end_effector': 10.0, 'visual_servo': 90.0,
     },
     'retries': {'move_base': 1, 'tomato_scan': 1, 'spatial_temporal': 1, 'move_robot': 1},

@@ -94,7 +94,7 @@ class SelfTestServer(object):
         pending = list(comps)
         start = rospy.get_time()
         rate = rospy.Rate(2.0)
-        while pending and not rospy.is_shutdown():
+        while pending and not rospy.is_shutdown() and not self._server.is_preempt_requested():
             try:
                 missing = self._graph_missing(pending)
             except Exception as exc:  # noqa: BLE001 - master unreachable
@@ -178,6 +178,9 @@ class SelfTestServer(object):
             results.append((comp['name'], ok, reason))
             self._server.publish_feedback(StartFeedback(component=comp['name'], ok=ok))
         success, failed, reasons, message = summarize(results)
+        if self._server.is_preempt_requested():
+            self._server.set_preempted(StartResult(success=False, message='cancelled'), 'self-test cancelled')
+            return
         result = StartResult(success=success, failed=failed, reasons=reasons, message=message)
         if success:
             rospy.loginfo('self_test_server: %s', message)

@@ -101,7 +101,9 @@ class ImageProcessingNode(object):
         self.hand_detector = TomatoDetector(**_detector_params('~hand_detection',
                                                                HAND_DETECTOR_DEFAULTS))
         self.bridge = CvBridge()
-        self.tf_buffer = tf2_ros.Buffer()
+        # a long cache: in accelerated sim time a loaded machine may process a stereo pair
+        # tens of simulated seconds after it was taken, and its tf must still be there
+        self.tf_buffer = tf2_ros.Buffer(cache_time=rospy.Duration(float(rospy.get_param('~tf_cache', 120.0))))
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
 
         self._cond = threading.Condition()
