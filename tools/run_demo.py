@@ -29,14 +29,10 @@ def free_port():
     return port
 
 
-def ground_truth_counts(fruits_msg):
-    """(ripe reachable, harvested, damaged) from a /sim/fruits message (harvest_sim's array type)."""
-    fruits = list(getattr(fruits_msg, 'fruits', []))
-    ripe_reachable = [f for f in fruits if f.ripe and f.reachable]
-    harvested_states = ('harvested', 'collected', 'held_cut')
-    harvested = [f for f in fruits if str(getattr(f, 'state', '')).lower() in harvested_states]
-    damaged = [f for f in fruits if str(getattr(f, 'state', '')).lower() in ('dropped', 'damaged')]
-    return len(ripe_reachable), len(harvested), len(damaged)
+def ground_truth_counts(summary):
+    """(ripe reachable, harvested, damaged) from harvest_sim's GetSimSummary response."""
+    return (int(summary.ripe_reachable), int(summary.harvested + summary.collected),
+            int(summary.dropped + summary.damaged))
 
 
 def main():
@@ -64,7 +60,6 @@ def main():
     sys.stdout.flush()
 
     import rospy
-    import rostopic
     from std_msgs.msg import String
 
     done = threading.Event()
@@ -95,9 +90,14 @@ def main():
                 return 1
         wall = time.time() - wall_start
         summary = state['summary']
-        fruits_class, _, _ = rostopic.get_topic_class('/sim/fruits')
-        truth = rospy.wait_for_message('/sim/fruits', fruits_class, timeout=10.0) if fruits_class else None
-        ripe_reachable, harvested, damaged = ground_truth_counts(truth) if truth else (-1, -1, -1)
+        from harvest_sim.srv import GetSimSummary
+        rospy.wait_for_service('/sim/get_summary', timeout=10.0)
+        truth = rospy.ServiceProxy('/sim/get_summary', GetSimSummary)()
+        ripe_reachable, harvested, damaged = ground_truth_counts(truth)
+        print('[demo] ground truth (%s): %d fruit, %d ripe, %d ripe reachable; collected %d (ripe %d, unripe %d), '
+              'dropped %d, damaged %d' % (truth.scenario, truth.total, truth.ripe, truth.ripe_reachable,
+                                          truth.collected, truth.collected_ripe, truth.collected_unripe,
+                                          truth.dropped, truth.damaged))
         skipped = summary['unreachable'] + summary['lost'] + summary['failed']
         from control_pkg.mission import summary_line
         print('[demo] mission %s ended %s after %d picking points; executive record: picked %d, '
