@@ -116,6 +116,7 @@ class UploaderNode(object):
 
     def _work(self):
         was_failing = False
+        was_drained = False
         while not self._stop.is_set() and not rospy.is_shutdown():
             delay = self.uploader.step()
             status = self.uploader.status()
@@ -127,6 +128,9 @@ class UploaderNode(object):
             elif failing:
                 rospy.logwarn_throttle(60.0, 'uploader: still failing: %s' % status['last_error'])
             was_failing = failing
+            if status['drained'] and not was_drained and status['sent'] > 0:
+                self._plan_due.set()    # our own records are all on the server: re-plan now
+            was_drained = status['drained']
             if self._plan_due.is_set():
                 self._plan_due.clear()
                 self._fetch_plan()

@@ -26,11 +26,11 @@ comes back if it is seen again. Plant: ``round(y_map / plant_spacing)``, the pla
 nearest when plants stand ``plant_spacing`` apart along the row.
 
 Ripening model (ripeness score 0 green .. 1 red, picking stage at ``ripe_score``): linear in
-time, s(t) = s_ref + r (t - t_ref). A fruit seen at least twice over at least
-``min_fit_span_days`` gets the least-squares line of its own sightings (s_ref, t_ref their means,
-r the slope clamped to [min_rate, max_rate] per day); otherwise s_ref, t_ref are its last sighting
-and r = ``default_rate``. The forecast for a time before the last sighting is the value at the
-last sighting (no back-casting). ``ready_at`` = when s(t) reaches ``ripe_score``.
+time from the latest sighting, s(t) = s_last + r (t - t_last). The rate r of a fruit seen at
+least twice over at least ``min_fit_span_days`` is the least-squares slope of its own sightings
+clamped to [min_rate, max_rate] per day; otherwise r = ``default_rate``. The forecast for a time
+before the last sighting is the last score (no back-casting). ``ready_at`` = when s(t) reaches
+``ripe_score``.
 
 Plan for a robot and a day: the picking points of the robot's row (its latest mission's site,
 unless given) where the expected pickable fruit at the start of work (``work_hour`` local time,
@@ -40,6 +40,7 @@ Expected pickable fruit of a point = fruit present there whose forecast is >= ``
 """
 
 import bisect
+import collections
 import datetime
 import math
 
@@ -160,10 +161,11 @@ class Fruit(object):
             var = sum((t - tm) ** 2 for t in ts)
             slope = sum((t - tm) * (s - sm) for t, s in zip(ts, ss)) / var
             self.rate = min(max(slope, cfg.min_rate), cfg.max_rate)
-            self.s_ref, self.t_ref, self.fitted = sm, tm * DAY, True
+            self.fitted = True
         else:
             self.rate = cfg.default_rate
-            self.s_ref, self.t_ref, self.fitted = ss[-1], self.history[-1][0], False
+            self.fitted = False
+        self.s_ref, self.t_ref = ss[-1], self.history[-1][0]
 
     def forecast(self, t):
         """Ripeness score expected at Unix time t (not before the last sighting)."""
@@ -441,16 +443,17 @@ class FarmState(object):
                 r['picked_today'] += int(today)
                 w['picked_today'] += int(today)
                 r['cycle_times'].append(p['cycle_time'])
+        missions = collections.Counter(m['robot'] for m in self.missions)
         for r in robots.values():
             times = r.pop('cycle_times')
             r['mean_cycle_time'] = round(sum(times) / len(times), 3) if times else None
             r['success_rate'] = round(r['picked'] / float(r['attempts']), 3)
-            r['missions'] = len([m for m in self.missions if m['robot'] == r['robot']])
-        for m in self.missions:
-            robots.setdefault(m['robot'], dict(
-                robot=m['robot'], attempts=0, picked=0, picked_today=0, mean_cycle_time=None,
+            r['missions'] = missions[r['robot']]
+        for robot, count in missions.items():
+            robots.setdefault(robot, dict(
+                robot=robot, attempts=0, picked=0, picked_today=0, mean_cycle_time=None,
                 success_rate=None, outcomes=dict((n, 0) for n in OUTCOME_NAMES.values()),
-                missions=len([x for x in self.missions if x['robot'] == m['robot']])))
+                missions=count))
         return (sorted(robots.values(), key=lambda r: r['robot']),
                 sorted(rows.values(), key=lambda r: r['row']))
 
