@@ -125,6 +125,7 @@ class SimCameraNode(object):
     def _on_joints(self, msg):
         with self._lock:
             self._joints.update(zip(msg.name, msg.position))
+            self._joints_stamp = msg.header.stamp
 
     def _on_fruits(self, msg):
         index = dict((f.id, i) for i, f in enumerate(self.scenario.fruits))
@@ -148,9 +149,15 @@ class SimCameraNode(object):
             return
         with self._lock:
             joints = dict(self._joints)
+            joints_stamp = getattr(self, '_joints_stamp', None)
             fruits, fkey = self._fruits, self._fruit_key
         key = (tuple(round(joints.get(j, 0.0), 5) for j in POSE_JOINTS[self.kind]), fkey)
+        stamp = rospy.Time.now()
         if key != self._rendered_key:
+            # A new view shows the robot where it was at its joint state's time, not when the
+            # render ends: stamp it so (a pair taken while the cart stops must not look fresh).
+            if joints_stamp is not None and not joints_stamp.is_zero() and joints_stamp < stamp:
+                stamp = joints_stamp
             poses = self.geom.frame_transforms(joints)
             for e in self.eyes:
                 start = time.perf_counter()
@@ -162,7 +169,6 @@ class SimCameraNode(object):
                 e.frames += 1
                 e.image = image_msg(img, e.header_frame)
             self._rendered_key = key
-        stamp = rospy.Time.now()
         for e in self.eyes:
             e.image.header.stamp = stamp
             e.info.header.stamp = stamp
