@@ -1,4 +1,4 @@
 from setuptools import setup
 from catkin_pkg.python_setup import generate_distutils_setup
 
-setup(**generate_distutils_setup(packages=['visualization_pkg'], package_dir={'': 'src'}))
+setup(**generate_distutils_setup(packages=['visualization_pkg', 'visualization_pkg.dashboard'], package_dir={'': 'src'}))

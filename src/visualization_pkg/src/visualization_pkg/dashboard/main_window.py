@@ -1,0 +1,195 @@
+"""The dashboard window: every panel in a dock, the emergency stop in a fixed toolbar."""
+from python_qt_binding.QtCore import QSettings, Qt, QTimer, Signal
+from python_qt_binding.QtGui import QFont
+from python_qt_binding.QtWidgets import QAction, QDockWidget, QLabel, QMainWindow, QToolBar, QWidget
+
+from visualization_pkg.dashboard.console_panel import ConsolePanel
+from visualization_pkg.dashboard.diagnostics_panel import DiagnosticsPanel
+from visualization_pkg.dashboard.image_panel import DEFAULT_TOPICS, ImagePanel
+from visualization_pkg.dashboard.mission_panel import MissionPanel
+from visualization_pkg.dashboard.nodes_panel import NodesPanel
+from visualization_pkg.dashboard.operation_panel import OperationPanel
+from visualization_pkg.dashboard.qt_common import QSettingsGroup, Settings
+from visualization_pkg.dashboard.reconfigure_panel import ReconfigurePanel
+from visualization_pkg.dashboard.smach_panel import StateMachinePanel
+
+SETTINGS_VERSION = 1
+
+DEFAULT_CONFIG = {
+    'executive': 'task_planner',
+    'introspection_server': 'harvest_executive',
+    'estop_topic': 'emergency_stop',
+    'halt_service': 'halt_all',
+    'actions': {'move_base': 'move_base', 'move_robot': 'move_robot', 'end_effector': 'end_effector'},
+    'action_timeout': 60.0,
+    'image_topics': [{'title': t, 'topic': n} for t, n in DEFAULT_TOPICS],
+    'expected_nodes': [],
+    'node_check_period': 2.0,
+    'console_topic': 'rosout_agg',
+    'diagnostics_topic': 'diagnostics_agg',
+    'reconfigure_servers': [],
+    'robot_yaml': '',
+}
+
+
+def merged_config(overrides):
+    cfg = dict(DEFAULT_CONFIG)
+    for key, value in (overrides or {}).items():
+        if key in cfg and isinstance(cfg[key], dict) and isinstance(value, dict):
+            merged = dict(cfg[key])
+            merged.update(value)
+            cfg[key] = merged
+        elif key in cfg:
+            cfg[key] = value
+    return cfg
+
+
+class DashboardWindow(QMainWindow):
+    """One window, dockable panels; start() subscribes, close() saves settings and shuts down."""
+    quit_requested = Signal()
+
+    def __init__(self, config=None, settings=None, parent=None):
+        QMainWindow.__init__(self, parent)
+        self.config = merged_config(config)
+        cfg = self.config
+        self.setWindowTitle('Harvest robot dashboard')
+        self.setObjectName('HarvestDashboard')
+        self.setDockNestingEnabled(True)
+        self.settings = settings if settings is not None else QSettings('harvest', 'harvest_dashboard')
+        self._shut = False
+
+        self.images = ImagePanel([(t['title'], t['topic']) for t in cfg['image_topics']])
+        self.smach = StateMachinePanel(cfg['introspection_server'])
+        self.operation = OperationPanel(cfg['executive'], cfg['introspection_server'], cfg['estop_topic'],
+                                        cfg['halt_service'], cfg['actions'], cfg['action_timeout'], cfg['robot_yaml'])
+        self.nodes = NodesPanel(cfg['expected_nodes'], cfg['node_check_period'])
+        self.console = ConsolePanel(cfg['console_topic'])
+        self.diagnostics = DiagnosticsPanel(cfg['diagnostics_topic'])
+        self.reconfigure = ReconfigurePanel(cfg['reconfigure_servers'])
+        self.mission = MissionPanel()
+        self.panels = [self.images, self.smach, self.operation, self.nodes, self.console, self.diagnostics,
+                       self.reconfigure, self.mission]
+
+        # the emergency stop lives in a fixed toolbar: always visible, whatever the docks do
+        bar = QToolBar('Emergency stop')
+        bar.setObjectName('estop_toolbar')
+        bar.setMovable(False)
+        bar.setFloatable(False)
+        bar.toggleViewAction().setEnabled(False)
+        bar.setContextMenuPolicy(Qt.PreventContextMenu)
+        self.operation.estop_layout.removeWidget(self.operation.estop_button)
+        self.operation.estop_holder.hide()
+        self.estop_button = self.operation.estop_button
+        bar.addWidget(self.estop_button)
+        spacer = QWidget()
+        spacer.setFixedWidth(12)
+        bar.addWidget(spacer)
+        self.mode_label = QLabel()
+        font = QFont()
+        font.setPointSize(11)
+        self.mode_label.setFont(font)
+        bar.addWidget(self.mode_label)
+        self.addToolBar(Qt.TopToolBarArea, bar)
+
+        self.docks = {}
+        for panel in self.panels:
+            dock = QDockWidget(panel.title, self)
+            dock.setObjectName('dock_' + panel.__class__.__name__)
+            dock.setWidget(panel)
+            dock.setFeatures(QDockWidget.DockWidgetMovable | QDockWidget.DockWidgetFloatable |
+                             QDockWidget.DockWidgetClosable)
+            self.docks[panel] = dock
+        self._default_layout()
+
+        view = self.menuBar().addMenu('&View')
+        for panel in self.panels:
+            view.addAction(self.docks[panel].toggleViewAction())
+        view.addSeparator()
+        reset = QAction('Reset layout', self)
+        reset.triggered.connect(self._default_layout)
+        view.addAction(reset)
+        file_menu = self.menuBar().addMenu('&File')
+        quit_action = QAction('Quit', self)
+        quit_action.setShortcut('Ctrl+Q')
+        quit_action.triggered.connect(self.close)
+        file_menu.addAction(quit_action)
+
+        self._timer = QTimer(self)
+        self._timer.setInterval(250)
+        self._timer.timeout.connect(self._tick)
+        self.quit_requested.connect(self.close, Qt.QueuedConnection)
+
+    def _default_layout(self):
+        d = self.docks
+        for dock in d.values():
+            dock.setFloating(False)
+            dock.show()
+        self.addDockWidget(Qt.LeftDockWidgetArea, d[self.images])
+        self.addDockWidget(Qt.LeftDockWidgetArea, d[self.operation])
+        self.splitDockWidget(d[self.images], d[self.operation], Qt.Vertical)
+        self.addDockWidget(Qt.RightDockWidgetArea, d[self.smach])
+        self.addDockWidget(Qt.RightDockWidgetArea, d[self.mission])
+        self.splitDockWidget(d[self.smach], d[self.mission], Qt.Horizontal)
+        self.addDockWidget(Qt.RightDockWidgetArea, d[self.console])
+        self.splitDockWidget(d[self.smach], d[self.console], Qt.Vertical)
+        self.tabifyDockWidget(d[self.console], d[self.diagnostics])
+        self.tabifyDockWidget(d[self.diagnostics], d[self.reconfigure])
+        self.splitDockWidget(d[self.mission], d[self.nodes], Qt.Vertical)
+        d[self.console].raise_()
+        self.resizeDocks([d[self.images], d[self.smach]], [560, 1000], Qt.Horizontal)
+        self.resizeDocks([d[self.images], d[self.operation]], [420, 520], Qt.Vertical)
+        self.resizeDocks([d[self.smach], d[self.console]], [620, 300], Qt.Vertical)
+        self.resizeDocks([d[self.smach], d[self.mission]], [620, 430], Qt.Horizontal)
+        self.resizeDocks([d[self.mission], d[self.nodes]], [400, 220], Qt.Vertical)
+
+    # --- life cycle -----------------------------------------------------------------------------
+    def start(self):
+        for panel in self.panels:
+            panel.start()
+        self._timer.start()
+        self._tick()
+
+    def _tick(self):
+        op = self.operation
+        self.mode_label.setText(op.mode_label.text().replace('<br>', '&nbsp;&nbsp;&nbsp;'))
+
+    def closeEvent(self, event):
+        self.save_settings()
+        self.shutdown()
+        QMainWindow.closeEvent(self, event)
+
+    def shutdown(self):
+        if self._shut:
+            return
+        self._shut = True
+        self._timer.stop()
+        for panel in self.panels:
+            panel.shutdown()
+
+    # --- settings ---------------------------------------------------------------------------------
+    def save_settings(self):
+        s = self.settings
+        s.setValue('version', SETTINGS_VERSION)
+        s.setValue('window/geometry', self.saveGeometry())
+        s.setValue('window/state', self.saveState(SETTINGS_VERSION))
+        for panel in self.panels:
+            panel.save_settings(Settings(QSettingsGroup(s, panel.objectName())))
+        s.sync()
+
+    def restore_settings(self):
+        s = self.settings
+        try:
+            version = int(s.value('version', 0))
+        except (TypeError, ValueError):
+            version = 0
+        if version != SETTINGS_VERSION:
+            return False
+        geometry = s.value('window/geometry')
+        if geometry is not None:
+            self.restoreGeometry(geometry)
+        state = s.value('window/state')
+        if state is not None:
+            self.restoreState(state, SETTINGS_VERSION)
+        for panel in self.panels:
+            panel.restore_settings(Settings(QSettingsGroup(s, panel.objectName())))
+        return True
