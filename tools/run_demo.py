@@ -35,33 +35,25 @@ def ground_truth_counts(summary):
             int(summary.dropped + summary.damaged))
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    parser.add_argument('--scenario', default=os.environ.get('HARVEST_SCENARIO', 'default'))
-    parser.add_argument('--time-scale', type=float, default=float(os.environ.get('HARVEST_TIME_SCALE', '2')))
-    parser.add_argument('--timeout', type=float, default=DEFAULT_TIMEOUT, help='wall seconds')
-    parser.add_argument('--log', default='demo.log', help='roslaunch output file')
-    args = parser.parse_args()
+def run_mission(scenario, time_scale, timeout, log_path):
+    """Run one simulated mission; return a dict with the executive summary, ground truth and wall time.
 
+    Raises RuntimeError with the reason when the mission could not run to its end.
+    """
     port = free_port()
-    env = dict(os.environ)
-    env['ROS_MASTER_URI'] = 'http://127.0.0.1:%d' % port
-    env['ROS_HOSTNAME'] = 'localhost'
-    os.environ.update({'ROS_MASTER_URI': env['ROS_MASTER_URI'], 'ROS_HOSTNAME': 'localhost'})
+    master = 'http://127.0.0.1:%d' % port
+    env = dict(os.environ, ROS_MASTER_URI=master, ROS_HOSTNAME='localhost')
+    os.environ.update({'ROS_MASTER_URI': master, 'ROS_HOSTNAME': 'localhost'})
     db_path = os.path.abspath('demo_harvest.db')
     wall_start = time.time()
-    log = open(args.log, 'w')
+    log = open(log_path, 'w')
     launch = subprocess.Popen(
-        ['roslaunch', '-p', str(port), 'harvest_bringup', 'sim.launch', 'scenario:=%s' % args.scenario,
-         'time_scale:=%g' % args.time_scale, 'db_path:=%s' % db_path, 'mission_id:=demo'],
+        ['roslaunch', '-p', str(port), 'harvest_bringup', 'sim.launch', 'scenario:=%s' % scenario,
+         'time_scale:=%g' % time_scale, 'db_path:=%s' % db_path, 'mission_id:=demo-%s' % scenario],
         stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
-    print('[demo] roslaunch harvest_bringup sim.launch scenario:=%s time_scale:=%g (log: %s)'
-          % (args.scenario, args.time_scale, args.log))
-    sys.stdout.flush()
-
+    import rosgraph
     import rospy
     from std_msgs.msg import String
-
     done = threading.Event()
     state = {}
 
@@ -69,44 +61,26 @@ def main():
         state['summary'] = json.loads(msg.data)
         done.set()
 
-    code = 1
     try:
-        # wait for the master roslaunch started
-        import rosgraph
         deadline = time.time() + 60.0
-        while not rosgraph.is_master_online():
+        while not rosgraph.is_master_online(master):
             if time.time() > deadline or launch.poll() is not None:
-                print('[demo] roslaunch did not start a master; see %s' % args.log)
-                return 1
+                raise RuntimeError('roslaunch did not start a master; see %s' % log_path)
             time.sleep(0.2)   # harness polling the master from outside ROS; not node code
-        rospy.init_node('harvest_demo', anonymous=True, disable_signals=True)
-        rospy.Subscriber('/mission/summary', String, on_summary)
+        if not rospy.core.is_initialized():
+            rospy.init_node('harvest_demo', anonymous=True, disable_signals=True)
+        sub = rospy.Subscriber('/mission/summary', String, on_summary)
         while not done.wait(1.0):
             if launch.poll() is not None:
-                print('[demo] the launch ended before the mission did; see %s' % args.log)
-                return 1
-            if time.time() - wall_start > args.timeout:
-                print('[demo] no mission summary within %.0f s; see %s' % (args.timeout, args.log))
-                return 1
+                raise RuntimeError('the launch ended before the mission did; see %s' % log_path)
+            if time.time() - wall_start > timeout:
+                raise RuntimeError('no mission summary within %.0f s; see %s' % (timeout, log_path))
+        sub.unregister()
         wall = time.time() - wall_start
-        summary = state['summary']
         from harvest_sim.srv import GetSimSummary
         rospy.wait_for_service('/sim/get_summary', timeout=10.0)
         truth = rospy.ServiceProxy('/sim/get_summary', GetSimSummary)()
-        ripe_reachable, harvested, damaged = ground_truth_counts(truth)
-        print('[demo] ground truth (%s): %d fruit, %d ripe, %d ripe reachable; collected %d (ripe %d, unripe %d), '
-              'dropped %d, damaged %d' % (truth.scenario, truth.total, truth.ripe, truth.ripe_reachable,
-                                          truth.collected, truth.collected_ripe, truth.collected_unripe,
-                                          truth.dropped, truth.damaged))
-        skipped = summary['unreachable'] + summary['lost'] + summary['failed']
-        from control_pkg.mission import summary_line
-        print('[demo] mission %s ended %s after %d picking points; executive record: picked %d, '
-              'unreachable %d, lost %d, failed %d%s' % (
-                  summary['mission_id'], summary['outcome'], summary['points_visited'], summary['picked'],
-                  summary['unreachable'], summary['lost'], summary['failed'],
-                  ('; last error: %s' % summary['last_error']) if summary.get('last_error') else ''))
-        print(summary_line(harvested, ripe_reachable, damaged, skipped, summary['mean_cycle_time'], wall))
-        code = 0 if summary['outcome'] == 'succeeded' else 1
+        return {'summary': state['summary'], 'truth': truth, 'wall': wall}
     finally:
         try:
             os.killpg(launch.pid, signal.SIGINT)
@@ -114,7 +88,38 @@ def main():
         except (subprocess.TimeoutExpired, ProcessLookupError):
             os.killpg(launch.pid, signal.SIGKILL)
         log.close()
-    return code
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--scenario', default=os.environ.get('HARVEST_SCENARIO', 'default'))
+    parser.add_argument('--time-scale', type=float, default=float(os.environ.get('HARVEST_TIME_SCALE', '2')))
+    parser.add_argument('--timeout', type=float, default=DEFAULT_TIMEOUT, help='wall seconds')
+    parser.add_argument('--log', default='demo.log', help='roslaunch output file')
+    args = parser.parse_args()
+    print('[demo] roslaunch harvest_bringup sim.launch scenario:=%s time_scale:=%g (log: %s)'
+          % (args.scenario, args.time_scale, args.log))
+    sys.stdout.flush()
+    try:
+        run = run_mission(args.scenario, args.time_scale, args.timeout, args.log)
+    except RuntimeError as exc:
+        print('[demo] %s' % exc)
+        return 1
+    summary, truth = run['summary'], run['truth']
+    ripe_reachable, harvested, damaged = ground_truth_counts(truth)
+    skipped = summary['unreachable'] + summary['lost'] + summary['failed']
+    print('[demo] mission %s ended %s after %d picking points; executive record: picked %d, '
+          'unreachable %d, lost %d, failed %d%s' % (
+              summary['mission_id'], summary['outcome'], summary['points_visited'], summary['picked'],
+              summary['unreachable'], summary['lost'], summary['failed'],
+              ('; last error: %s' % summary['last_error']) if summary.get('last_error') else ''))
+    print('[demo] ground truth (%s): %d fruit, %d ripe, %d ripe reachable; collected %d (ripe %d, unripe %d), '
+          'dropped %d, damaged %d' % (truth.scenario, truth.total, truth.ripe, truth.ripe_reachable,
+                                      truth.collected, truth.collected_ripe, truth.collected_unripe,
+                                      truth.dropped, truth.damaged))
+    from control_pkg.mission import summary_line
+    print(summary_line(harvested, ripe_reachable, damaged, skipped, summary['mean_cycle_time'], run['wall']))
+    return 0 if summary['outcome'] == 'succeeded' else 1
 
 
 if __name__ == '__main__':
