@@ -1,0 +1,197 @@
+"""Dashboard widgets offscreen (QT_QPA_PLATFORM=offscreen), fed through their slots: no ROS master.
+
+The state-machine graph and its userdata, the manual-operation gate, the window (fixed e-stop
+toolbar, docks, settings round trip, shutdown) and the rqt plugin classes with a stand-in rqt.
+"""
+import base64
+import os
+import pickle
+import sys
+import types
+
+import pytest
+
+os.environ.setdefault('QT_QPA_PLATFORM', 'offscreen')
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), 'src'))
+
+QtWidgets = pytest.importorskip('python_qt_binding.QtWidgets')
+smach_msgs = pytest.importorskip('smach_msgs.msg')
+pytest.importorskip('harvest_msgs.msg')
+
+from python_qt_binding.QtCore import QSettings  # noqa: E402
+
+
+@pytest.fixture(scope='module')
+def app():
+    return QtWidgets.QApplication.instance() or QtWidgets.QApplication(['test'])
+
+
+def structure(path, children, edges, outcomes):
+    return smach_msgs.SmachContainerStructure(path=path, children=children,
+                                              internal_outcomes=[e[0] for e in edges],
+                                              outcomes_from=[e[1] for e in edges],
+                                              outcomes_to=[e[2] for e in edges], container_outcomes=outcomes)
+
+
+def status(path, active, data=None, initial=None):
+    local = base64.b64encode(pickle.dumps(data or {}, 2)).decode('ascii')
+    return smach_msgs.SmachContainerStatus(path=path, active_states=active, initial_states=initial or [],
+                                           local_data=local)
+
+
+def feed_executive(panel):
+    panel.on_structure(structure('/SM_ROOT', ['RUN', 'DO_STOP'],
+                                 [('estop', 'RUN', 'DO_STOP'), ('resume', 'DO_STOP', 'RUN'),
+                                  ('succeeded', 'RUN', 'succeeded')], ['succeeded', 'aborted']))
+    panel.on_structure(structure('/SM_ROOT/RUN', ['MISSION', 'ESTOP_MONITOR'],
+                                 [('succeeded', 'MISSION', 'succeeded'), ('estop', 'ESTOP_MONITOR', 'estop')],
+                                 ['succeeded', 'estop']))
+    panel.on_structure(structure('/SM_ROOT/RUN/MISSION', ['DO_START', 'NEXT_POINT', 'DO_MOVEBASE'],
+                                 [('succeeded', 'DO_START', 'NEXT_POINT'), ('point', 'NEXT_POINT', 'DO_MOVEBASE'),
+                                  ('succeeded', 'DO_MOVEBASE', 'NEXT_POINT'), ('done', 'NEXT_POINT', 'succeeded')],
+                                 ['succeeded', 'aborted']))
+    panel.on_status(status('/SM_ROOT', ['RUN'], initial=['RUN']))
+    panel.on_status(status('/SM_ROOT/RUN', ['MISSION', 'ESTOP_MONITOR']))
+    panel.on_status(status('/SM_ROOT/RUN/MISSION', ['DO_MOVEBASE'], {'picking_point': 3, 'track_position': 1.8},
+                           initial=['DO_START']))
+
+
+def test_state_machine_panel(app):
+    from visualization_pkg.dashboard.smach_panel import StateMachinePanel
+    panel = StateMachinePanel()
+    panel.resize(900, 600)
+    feed_executive(panel)
+    panel.flush()
+    assert panel.view_root() == '/SM_ROOT/RUN'                # follow: deepest active container, depth 2
+    assert panel.highlighted_paths() == {'/SM_ROOT/RUN/MISSION', '/SM_ROOT/RUN/MISSION/DO_MOVEBASE',
+                                         '/SM_ROOT/RUN/ESTOP_MONITOR'}
+    assert 'DO_MOVEBASE' in panel.active_label.text()
+    panel.select('/SM_ROOT/RUN/MISSION/DO_MOVEBASE')
+    items = dict((panel.ud_tree.topLevelItem(i).text(0), panel.ud_tree.topLevelItem(i).text(1))
+                 for i in range(panel.ud_tree.topLevelItemCount()))
+    assert items == {'picking_point': '3', 'track_position': '1.8'}
+    # the emergency stop moves the root to DO_STOP
+    panel.on_status(status('/SM_ROOT', ['DO_STOP']))
+    panel.flush()
+    assert panel.view_root() == '/SM_ROOT'
+    assert panel.highlighted_paths() == {'/SM_ROOT/DO_STOP'}
+    # a fixed view with every level expanded
+    panel.root_combo.setCurrentIndex(panel.root_combo.findText('/SM_ROOT'))
+    panel.depth_spin.setValue(3)
+    panel.flush()
+    assert '/SM_ROOT/RUN/MISSION/DO_START' in panel.drawn_paths()
+    panel.grab()
+
+
+def test_operation_gate_without_ros(app):
+    from visualization_pkg.dashboard import executive_state as es
+    from visualization_pkg.dashboard.operation_panel import EStopButton, OperationPanel
+    op = OperationPanel()
+    assert op.mode() == es.UNKNOWN
+    assert not op.jog('left_lift_joint', 0.01) and 'not known yet' in op.last_message
+    op._on_root_status(status('/SM_ROOT', ['RUN']))
+    assert op.mode() == es.RUNNING
+    assert not op.move_cart(0) and 'mission is running' in op.last_message
+    assert not op.start_mission() and 'already running' in op.last_message
+    op._on_root_status(status('/SM_ROOT', ['DO_STOP']))
+    op.refresh()
+    assert op.estop_button.state == EStopButton.STOPPED
+    assert not op.jog('left_lift_joint', 0.01) and 'no joint_states' in op.last_message
+    assert op.limits['right_boom_joint'] == (-2.618, 2.618)
+    op._on_root_status(status('/SM_ROOT/RUN', ['MISSION']))    # a nested container: not the root
+    assert op.mode() == es.PAUSED
+    op.confirm = lambda question: False
+    assert not op.end_effector(1) and 'cancelled' in op.last_message
+
+
+def test_window_layout_settings_and_shutdown(app, tmp_path):
+    from visualization_pkg.dashboard.main_window import DashboardWindow
+    ini = str(tmp_path / 'dashboard.ini')
+    w = DashboardWindow({'expected_nodes': ['task_planner']}, QSettings(ini, QSettings.IniFormat))
+    w.resize(1600, 1000)
+    w.show()
+    app.processEvents()
+    bar = w.estop_button.parentWidget()
+    assert isinstance(bar, QtWidgets.QToolBar) and not bar.isMovable()
+    assert w.estop_button.isVisible()
+    for panel in w.panels:                                  # every panel sits in its own dock
+        assert isinstance(panel.parentWidget(), QtWidgets.QDockWidget)
+    w.docks[w.console].hide()
+    assert w.estop_button.isVisible()                       # docks come and go, the stop stays
+    w.smach.depth_spin.setValue(4)
+    w.images.combos[0].setEditText('other/image')
+    w.close()
+    assert w._shut
+    other = DashboardWindow(settings=QSettings(ini, QSettings.IniFormat))
+    assert other.restore_settings()
+    assert other.smach.depth_spin.value() == 4
+    assert other.images.combos[0].currentText() == 'other/image'
+    other.shutdown()
+
+
+def test_rqt_plugins_with_a_stand_in_rqt(app, monkeypatch):
+    """plugin.xml names classes that work with rqt's Plugin interface (rqt itself is not on Debian)."""
+    from python_qt_binding.QtCore import QObject
+
+    class Plugin(QObject):                                   # qt_gui's Plugin is a QObject taking a context
+        def __init__(self, context):
+            QObject.__init__(self)
+
+    fake = types.ModuleType('rqt_gui_py.plugin')
+    fake.Plugin = Plugin
+    monkeypatch.setitem(sys.modules, 'rqt_gui_py', types.ModuleType('rqt_gui_py'))
+    monkeypatch.setitem(sys.modules, 'rqt_gui_py.plugin', fake)
+    sys.modules.pop('visualization_pkg.dashboard.rqt_plugins', None)
+    from visualization_pkg.dashboard import rqt_plugins
+    import visualization_pkg.dashboard.main_window  # noqa: F401 - imports every panel class
+    import visualization_pkg.dashboard.qt_common as qc
+    for cls in [qc.Panel] + qc.Panel.__subclasses__():       # no ROS graph here: do not subscribe
+        monkeypatch.setattr(cls, 'start', lambda self: None)
+    assert rqt_plugins.HAVE_RQT
+
+    class Context(object):
+        def __init__(self):
+            self.widgets = []
+
+        def serial_number(self):
+            return 2
+
+        def add_widget(self, widget):
+            self.widgets.append(widget)
+
+    class Store(object):
+        def __init__(self):
+            self.d = {}
+
+        def set_value(self, k, v):
+            self.d[k] = v
+
+        def value(self, k, default=None):
+            return self.d.get(k, default)
+
+    xml = open(os.path.join(os.path.dirname(HERE), 'plugin.xml')).read()
+    for name in ('ImagePlugin', 'StateMachinePlugin', 'OperationPlugin', 'NodesPlugin', 'ConsolePlugin',
+                 'DiagnosticsPlugin', 'ReconfigurePlugin', 'MissionPlugin'):
+        assert 'visualization_pkg.dashboard.rqt_plugins.' + name in xml
+        ctx = Context()
+        plugin = getattr(rqt_plugins, name)(ctx)
+        assert ctx.widgets == [plugin.panel] and plugin.panel.windowTitle().endswith('(2)')
+        store = Store()
+        plugin.save_settings(Store(), store)
+        plugin.restore_settings(Store(), store)
+        plugin.shutdown_plugin()
+    sys.modules.pop('visualization_pkg.dashboard.rqt_plugins', None)
+
+
+def test_mission_plot_paints(app):
+    from visualization_pkg.dashboard.mission_panel import MissionPanel, nice_step
+    assert nice_step(9.0) == 2.0 and nice_step(0.0) == 1.0
+    panel = MissionPanel()
+    panel.resize(500, 400)
+    for i, outcome in enumerate([0, 1, 2, 0]):
+        panel.stats.add_record('m', 0, i, outcome, '', ['DO_KINEMATICS', 'DO_MOVE_ROBOT'], [0.2, 1.0 + i], 1.5 + i)
+    image = panel.plot.grab().toImage()
+    assert image.width() > 0
+    colours = set(image.pixel(x, y) for x in range(0, image.width(), 5) for y in range(0, image.height(), 5))
+    assert len(colours) > 4                                 # bars drawn, not a blank widget
