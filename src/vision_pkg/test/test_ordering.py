@@ -38,3 +38,11 @@ def test_ties_are_deterministic():
 def test_negative_tolerance_rejected():
     with pytest.raises(ValueError):
         picking_order([(0, 0)], -1.0)
+
+
+def test_inside_image_rejects_fruit_cut_by_the_border():
+    from vision_pkg.ordering import inside_image
+    assert inside_image(100, 100, 50, 640, 480, 4)
+    assert not inside_image(28, 455, 48, 1024, 768, 4)       # cut by the left border
+    assert not inside_image(600, 240, 40, 640, 480, 4)       # cut by the right border
+    assert not inside_image(320, 470, 20, 640, 480, 4)       # cut by the bottom

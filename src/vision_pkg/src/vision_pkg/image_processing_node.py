@@ -96,6 +96,11 @@ class ImageProcessingNode(object):
         self.fresh_data = bool(rospy.get_param('~fresh_data', True))
         self.data_timeout = float(rospy.get_param('~data_timeout', 5.0))
         self.tf_timeout = float(rospy.get_param('~tf_timeout', 0.5))
+        # a pickable tomato's fitted sphere must have a tomato's size (leaves and stems do not)
+        self.min_fruit_radius = float(rospy.get_param('~min_fruit_radius', 0.018))
+        self.max_fruit_radius = float(rospy.get_param('~max_fruit_radius', 0.055))
+        # a fruit cut by the image border has a wrong circle and 3D point: pick it from the next point
+        self.border_margin_px = float(rospy.get_param('~border_margin_px', 4.0))
         self.row_tolerance = float(rospy.get_param('~row_tolerance_px', 40.0))
         self.stereo_detector = TomatoDetector(**_detector_params('~stereo_detection', {}))
         self.hand_detector = TomatoDetector(**_detector_params('~hand_detection',
@@ -376,7 +381,14 @@ class ImageProcessingNode(object):
                 ps.header = cloud_msg.header
                 ps.point.x, ps.point.y, ps.point.z = (float(c) for c in loc.centre)
                 point = tf2_geometry_msgs.do_transform_point(ps, transform)
-            entries.append((det, loc, point, point is not None and det.score >= threshold))
+            plausible = (loc is not None and self.min_fruit_radius <= loc.radius <= self.max_fruit_radius
+                         and ordering.inside_image(det.u, det.v, det.radius_px, image_msg.width,
+                                                   image_msg.height, self.border_margin_px))
+            if loc is not None and not plausible:
+                rospy.logdebug('image_processing: detection at (%.0f, %.0f) px, radius %.1f mm, not '
+                               'pickable: cut by the image border or not a tomato\'s size', det.u, det.v,
+                               loc.radius * 1000.0)
+            entries.append((det, loc, point, point is not None and plausible and det.score >= threshold))
         pickable = [i for i, e in enumerate(entries) if e[3]]
         order = ordering.picking_order([(entries[i][0].u, entries[i][0].v) for i in pickable],
                                        self.row_tolerance)

@@ -27,3 +27,9 @@ def picking_order(points, row_tolerance):
     for _, members in rows:
         order.extend(sorted(members, key=lambda i: (points[i][0], i)))
     return order
+
+
+def inside_image(u, v, radius_px, width, height, margin_px=0.0):
+    """True when the circle (u, v, radius_px) lies inside the image with `margin_px` to spare."""
+    return (u - radius_px >= margin_px and v - radius_px >= margin_px and
+            u + radius_px <= width - 1 - margin_px and v + radius_px <= height - 1 - margin_px)
