@@ -77,7 +77,7 @@ class FarmServer(object):
                 f.write(config_text)
         self.proc = None
 
-    def start(self, timeout=30.0):
+    def start(self, timeout=90.0):
         cmd = [sys.executable, '-m', 'network_pkg.farm_server', '--db', self.db_url, 'serve',
                '--port', str(self.port), '--log-level', 'warning']
         if self.config:

@@ -72,11 +72,11 @@ def test_two_robots_every_row_exactly_once_across_server_and_uploader_crashes(db
         for robot in sorted(paths):
             uploaders[robot] = farm_harness.start_uploader(
                 paths[robot], server.url, tokens[robot], work, robot, batch_size=40,
-                min_interval=0.05)
+                min_interval=0.08)
         writer.start()
 
         # 1. the server dies (SIGKILL) mid-upload, then comes back on the same port
-        farm_harness.wait_for(lambda: server_total(db) >= initial // 4, 60,
+        farm_harness.wait_for(lambda: server_total(db) >= initial // 4, 120,
                               'a quarter of the rows on the server')
         server.kill()
         at_kill = server_total(db)
@@ -86,22 +86,22 @@ def test_two_robots_every_row_exactly_once_across_server_and_uploader_crashes(db
         def backing_off():
             logs = [open(os.path.join(work, 'uploader_%s.log' % r)).read() for r in paths]
             return all('unreachable' in text for text in logs)
-        farm_harness.wait_for(backing_off, 20, 'both uploaders to notice the server is down')
+        farm_harness.wait_for(backing_off, 60, 'both uploaders to notice the server is down')
         server.start()
 
         # 2. robot_a's uploader dies (SIGKILL) mid-upload and is restarted
-        farm_harness.wait_for(lambda: server_total(db) >= at_kill + 200, 60,
+        farm_harness.wait_for(lambda: server_total(db) >= at_kill + 200, 120,
                               'upload resumed after the server restart')
         uploaders['robot_a'].kill()
         uploaders['robot_a'].wait(10)
         assert farm_harness.pending(paths['robot_a']) > 0, 'must be killed mid-upload'
         uploaders['robot_a'] = farm_harness.start_uploader(
             paths['robot_a'], server.url, tokens['robot_a'], work, 'robot_a_again',
-            batch_size=40, min_interval=0.05)
+            batch_size=40, min_interval=0.08)
 
-        assert done.wait(60), 'the live recording did not finish'
+        assert done.wait(120), 'the live recording did not finish'
         farm_harness.wait_for(lambda: all(farm_harness.pending(p) == 0 for p in paths.values()),
-                              120, 'both stores fully uploaded')
+                              240, 'both stores fully uploaded')
     finally:
         stop.set()
         if writer.is_alive():
