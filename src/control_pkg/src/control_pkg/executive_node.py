@@ -3,7 +3,8 @@
 Node `task_planner`
   Action clients (relative names, see config/executive.yaml `actions`): self_test, move_base,
     tomato_scan, spatial_temporal, kinematics, move_robot, end_effector, visual_servo
-  Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: true = stop)
+  Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: true = stop),
+              plan/picking_points (std_msgs/Int32MultiArray, latched: the day's plan, visit order)
   Services:   ~start, ~emergency_stop, ~resume (std_srvs/Trigger; ~start when ~autostart is false)
   Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR
   Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
@@ -17,7 +18,7 @@ import math
 import threading
 
 import rospy
-from std_msgs.msg import Bool, String
+from std_msgs.msg import Bool, Int32MultiArray, String
 from std_srvs.srv import Trigger, TriggerResponse
 
 from harvest_msgs.msg import MissionEvent, PickRecord
@@ -83,6 +84,9 @@ class TaskPlanner(object):
             rospy.logfatal('task_planner: bad configuration: %s', exc)
             raise
         self.mission_id = rospy.get_param('~mission_id', '') or 'mission-%d' % int(rospy.get_time() * 1000)
+        self._plan = None
+        self._plan_received = threading.Event()
+        self._plan_sub = rospy.Subscriber('plan/picking_points', Int32MultiArray, self._plan_cb, queue_size=1)
         self.progress = mission_lib.Progress(loader=self._load_points)
         self.recorder = mission_lib.MissionRecorder(self.mission_id)
         self.shutdown_when_done = rospy.get_param('~shutdown_when_done', False)
@@ -111,14 +115,24 @@ class TaskPlanner(object):
         rospy.on_shutdown(self.on_shutdown)
         rospy.loginfo('task_planner: mission %s ready', self.mission_id)
 
-    @staticmethod
-    def _load_points():
-        """The picking points to visit: ~picking_points, else every point of the track's layout.
+    def _plan_cb(self, msg):
+        self._plan = [int(p) for p in msg.data]
+        self._plan_received.set()
+        rospy.loginfo('task_planner: plan of the day received: picking points %s', self._plan)
+
+    def _load_points(self):
+        """The picking points to visit: ~picking_points; else the day's plan from the farm server
+        (latched `plan/picking_points`, network_pkg's uploader); else every point of the track.
 
         Read when the mission reaches its first point (after DO_START), so the track layout
         (/track/picking_points, set by the site configuration or the simulator) may come late.
         """
         points = rospy.get_param('~picking_points', None)
+        if points is None and self._plan_sub.get_num_connections() > 0:
+            # a plan publisher is connected: its latched plan is on its way
+            self._plan_received.wait(5.0)
+        if points is None and self._plan is not None:
+            points = self._plan
         if points is None:
             track = rospy.get_param('track/picking_points', None)
             if track is None:

@@ -32,6 +32,8 @@ class Watcher(object):
         rospy.Subscriber('/harvest_executive/smach/container_status', SmachContainerStatus, self._status)
         rospy.Subscriber('mock/halt_count', Int32, self._halt)
         rospy.Subscriber('task_planner/state', String, self._state)
+        self.goals = []
+        rospy.Subscriber('mock/goals', String, lambda m: self._update(lambda: self.goals.append(m.data)))
 
     def _update(self, fn):
         with self.cond:
@@ -123,6 +125,15 @@ class ExecutiveTest(unittest.TestCase):
         s = w.summary
         self.assertEqual(s['outcome'], 'succeeded', s)
         self.assertEqual(s['picked'], 2, s)
+
+    def check_plan(self):
+        w = self.w
+        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
+        s = w.summary
+        self.assertEqual(s['outcome'], 'succeeded', s)
+        moves = [g for g in w.goals if g.startswith('move_base')]
+        self.assertEqual(moves, ['move_base 2', 'move_base 0'], 'the plan of the day was not followed')
+        self.assertEqual(s['picked'], 1, s)          # the target at point 1 is not in the plan
 
     def check_missing(self):
         w = self.w
