@@ -91,6 +91,8 @@ class ImagePanel(Panel):
             combo.setEditable(True)
             combo.addItem(topic)
             combo.setToolTip('sensor_msgs/Image topic of this view')
+            combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
+            combo.setMinimumContentsLength(10)
             combo.activated.connect(lambda _i, i=i: self._topic_changed(i))
             combo.lineEdit().editingFinished.connect(lambda i=i: self._topic_changed(i))
             v.addWidget(view, 1)

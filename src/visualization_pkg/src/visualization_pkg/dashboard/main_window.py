@@ -1,7 +1,8 @@
 """The dashboard window: every panel in a dock, the emergency stop in a fixed toolbar."""
 from python_qt_binding.QtCore import QSettings, Qt, QTimer, Signal
 from python_qt_binding.QtGui import QFont
-from python_qt_binding.QtWidgets import QAction, QDockWidget, QLabel, QMainWindow, QToolBar, QWidget
+from python_qt_binding.QtWidgets import (QAction, QDockWidget, QLabel, QMainWindow, QSizePolicy, QToolBar,
+                                         QWidget)
 
 from visualization_pkg.dashboard.console_panel import ConsolePanel
 from visualization_pkg.dashboard.diagnostics_panel import DiagnosticsPanel
@@ -80,6 +81,8 @@ class DashboardWindow(QMainWindow):
         self.operation.estop_layout.removeWidget(self.operation.estop_button)
         self.operation.estop_holder.hide()
         self.estop_button = self.operation.estop_button
+        self.estop_button.setSizePolicy(QSizePolicy.Fixed, QSizePolicy.Fixed)
+        self.estop_button.setFixedWidth(300)
         bar.addWidget(self.estop_button)
         spacer = QWidget()
         spacer.setFixedWidth(12)
@@ -120,6 +123,8 @@ class DashboardWindow(QMainWindow):
         self.quit_requested.connect(self.close, Qt.QueuedConnection)
 
     def _default_layout(self):
+        """Images and manual operation on the left, the state machine in the middle, the mission on
+        the right; console, diagnostics, reconfigure and nodes tabbed below the state machine."""
         d = self.docks
         for dock in d.values():
             dock.setFloating(False)
@@ -132,15 +137,13 @@ class DashboardWindow(QMainWindow):
         self.splitDockWidget(d[self.smach], d[self.mission], Qt.Horizontal)
         self.addDockWidget(Qt.RightDockWidgetArea, d[self.console])
         self.splitDockWidget(d[self.smach], d[self.console], Qt.Vertical)
-        self.tabifyDockWidget(d[self.console], d[self.diagnostics])
+        self.tabifyDockWidget(d[self.console], d[self.nodes])
+        self.tabifyDockWidget(d[self.nodes], d[self.diagnostics])
         self.tabifyDockWidget(d[self.diagnostics], d[self.reconfigure])
-        self.splitDockWidget(d[self.mission], d[self.nodes], Qt.Vertical)
         d[self.console].raise_()
-        self.resizeDocks([d[self.images], d[self.smach]], [560, 1000], Qt.Horizontal)
-        self.resizeDocks([d[self.images], d[self.operation]], [420, 520], Qt.Vertical)
-        self.resizeDocks([d[self.smach], d[self.console]], [620, 300], Qt.Vertical)
-        self.resizeDocks([d[self.smach], d[self.mission]], [620, 430], Qt.Horizontal)
-        self.resizeDocks([d[self.mission], d[self.nodes]], [400, 220], Qt.Vertical)
+        self.resizeDocks([d[self.images], d[self.smach], d[self.mission]], [520, 760, 480], Qt.Horizontal)
+        self.resizeDocks([d[self.images], d[self.operation]], [330, 620], Qt.Vertical)
+        self.resizeDocks([d[self.smach], d[self.console]], [640, 300], Qt.Vertical)
 
     # --- life cycle -----------------------------------------------------------------------------
     def start(self):

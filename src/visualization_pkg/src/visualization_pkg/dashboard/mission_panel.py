@@ -149,8 +149,9 @@ class MissionPanel(Panel):
         self.table.setSelectionBehavior(QAbstractItemView.SelectRows)
         h = self.table.horizontalHeader()
         h.setSectionResizeMode(QHeaderView.Interactive)
-        for col, width in enumerate((62, 78, 62, 300)):
-            h.resizeSection(col, width)
+        for col in range(3):
+            h.setSectionResizeMode(col, QHeaderView.ResizeToContents)
+        h.resizeSection(3, 330)
         h.setStretchLastSection(True)
         self.plot = CycleTimePlot(self.stats)
         self.splitter = QSplitter(Qt.Vertical)

@@ -228,7 +228,8 @@ class OperationPanel(Panel):
         else:
             self.estop_button.set_state(EStopButton.READY)
         allowed, reason = self.state.manual_allowed(ros_now())
-        self.jog_box.setTitle('Jog arm joints (move_robot)%s' % ('' if allowed else ' - locked: mission running'))
+        locked = {es.RUNNING: 'locked while the mission runs', es.UNKNOWN: 'locked until the executive is seen'}
+        self.jog_box.setTitle('Jog arm joints (move_robot)%s' % ('' if allowed else ' - ' + locked.get(mode, 'locked')))
         for joint, label in self.jog_value_labels.items():
             if joint in self.positions:
                 v = self.positions[joint]

@@ -81,6 +81,8 @@ class StateMachinePanel(Panel):
         self.root_combo = QComboBox()
         self.root_combo.addItem(FOLLOW)
         self.root_combo.setToolTip('Container drawn at the top of the view')
+        self.root_combo.setSizeAdjustPolicy(QComboBox.AdjustToMinimumContentsLengthWithIcon)
+        self.root_combo.setMinimumContentsLength(14)
         self.depth_spin = QSpinBox()
         self.depth_spin.setRange(1, 8)
         self.depth_spin.setValue(2)
@@ -113,6 +115,7 @@ class StateMachinePanel(Panel):
         self.splitter.addWidget(ud_box)
         self.splitter.setStretchFactor(0, 4)
         self.splitter.setStretchFactor(1, 1)
+        self.splitter.setSizes([700, 220])
 
         top = QHBoxLayout()
         top.addWidget(QLabel('View'))
@@ -370,8 +373,9 @@ class StateMachinePanel(Panel):
         self._shown_userdata = (owner, c.local_data)
         data, error = userdata.decode(c.local_data)
         self.ud_label.setText('Userdata of <b>%s</b>%s%s' % (
-            owner, '' if owner == key else ' (selected %s)' % key.rpartition('/')[2],
+            owner.rpartition('/')[2], '' if owner == key else ' (selected %s)' % key.rpartition('/')[2],
             ('<br><span style="color:#c62828">%s</span>' % error) if error else ''))
+        self.ud_label.setToolTip(owner)
         self.ud_tree.clear()
         summary, kids = userdata.describe(data)
         self._fill(self.ud_tree.invisibleRootItem(), kids)

@@ -1,0 +1,134 @@
+#!/usr/bin/env python3
+"""Screenshots of rviz and the dashboard during a simulated mission, for the documentation.
+
+Starts a private ROS master with `harvest_bringup sim.launch`, rviz (launch/rviz.launch) on one
+Xvfb display and the dashboard (launch/dashboard.launch) on another, waits until the mission has
+finished a few fruit and an arm is moving, then grabs both screens with ImageMagick `import`.
+
+Usage (workspace built and sourced; Debian packages xvfb and imagemagick):
+  src/visualization_pkg/tools/doc_screenshots.py [--out docs] [--fruit 2] [--time-scale 2]
+"""
+import argparse
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(('127.0.0.1', 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def free_display(start):
+    for n in range(start, start + 100):
+        if not os.path.exists('/tmp/.X%d-lock' % n) and not os.path.exists('/tmp/.X11-unix/X%d' % n):
+            return n
+    raise RuntimeError('no free X display')
+
+
+class Harness(object):
+    def __init__(self, args):
+        self.args = args
+        self.procs = []
+        self.port = free_port()
+        self.master = 'http://127.0.0.1:%d' % self.port
+        self.env = dict(os.environ, ROS_MASTER_URI=self.master, ROS_HOSTNAME='localhost')
+        os.environ.update({'ROS_MASTER_URI': self.master, 'ROS_HOSTNAME': 'localhost'})
+        self.logdir = tempfile.mkdtemp(prefix='doc_screenshots_')
+
+    def start(self, name, cmd, display=None):
+        env = dict(self.env)
+        if display is not None:
+            env['DISPLAY'] = ':%d' % display
+        log = open(os.path.join(self.logdir, name + '.log'), 'w')
+        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+        self.procs.append((name, proc))
+        return proc
+
+    def xvfb(self, size):
+        n = free_display(120 + len(self.procs))
+        self.start('xvfb%d' % n, ['Xvfb', ':%d' % n, '-screen', '0', '%sx24' % size, '-nolisten', 'tcp'])
+        deadline = time.time() + 20
+        while not os.path.exists('/tmp/.X11-unix/X%d' % n):
+            if time.time() > deadline:
+                raise RuntimeError('Xvfb :%d did not start' % n)
+            time.sleep(0.2)     # harness outside ROS, polling a socket file
+        return n
+
+    def grab(self, display, path):
+        subprocess.run(['import', '-display', ':%d' % display, '-window', 'root', path], check=True, timeout=60)
+        print('[screenshots] wrote %s' % path)
+
+    def stop(self):
+        for name, proc in reversed(self.procs):
+            if proc.poll() is None:
+                try:
+                    os.killpg(proc.pid, signal.SIGINT)
+                    proc.wait(timeout=20)
+                except (subprocess.TimeoutExpired, ProcessLookupError):
+                    try:
+                        os.killpg(proc.pid, signal.SIGKILL)
+                    except ProcessLookupError:
+                        pass
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--out', default='docs', help='directory for rviz.png and dashboard.png')
+    parser.add_argument('--scenario', default='default')
+    parser.add_argument('--time-scale', type=float, default=2.0)
+    parser.add_argument('--fruit', type=int, default=2, help='finished fruit before the screenshots')
+    parser.add_argument('--timeout', type=float, default=900.0, help='wall seconds')
+    args = parser.parse_args()
+    h = Harness(args)
+    print('[screenshots] logs in %s' % h.logdir)
+    try:
+        h.start('sim', ['roslaunch', '-p', str(h.port), 'harvest_bringup', 'sim.launch', 'scenario:=' + args.scenario,
+                        'time_scale:=%g' % args.time_scale, 'db_path:=' + os.path.join(h.logdir, 'sim.db'),
+                        'mission_id:=screenshot-demo'])
+        import rosgraph
+        deadline = time.time() + 90
+        while not rosgraph.is_master_online(h.master):
+            if time.time() > deadline:
+                raise RuntimeError('no master')
+            time.sleep(0.5)     # harness outside ROS
+        rviz_display = h.xvfb('1600x1000')
+        dash_display = h.xvfb('1800x1050')
+        h.start('rviz', ['roslaunch', 'visualization_pkg', 'rviz.launch'], rviz_display)
+        h.start('dashboard', ['roslaunch', 'visualization_pkg', 'dashboard.launch', 'restore:=false',
+                              'settings_file:=' + os.path.join(h.logdir, 'dashboard.ini')], dash_display)
+        import rospy
+        from harvest_msgs.msg import MoveRobotActionGoal, PickRecord
+        rospy.init_node('doc_screenshots', anonymous=True, disable_signals=True)
+        records, moving = [], threading.Event()
+        rospy.Subscriber('/mission/pick_records', PickRecord, records.append)
+        rospy.Subscriber('/move_robot/goal', MoveRobotActionGoal, lambda _m: moving.set())
+        deadline = time.time() + args.timeout
+        while len([r for r in records if r.outcome == PickRecord.OUTCOME_PICKED]) < args.fruit:
+            if time.time() > deadline:
+                raise RuntimeError('only %d fruit within the timeout' % len(records))
+            time.sleep(1.0)     # harness outside ROS
+        moving.clear()
+        moving.wait(120)
+        time.sleep(1.5)         # let both windows draw the new goal
+        os.makedirs(args.out, exist_ok=True)
+        h.grab(rviz_display, os.path.join(args.out, 'rviz.png'))
+        h.grab(dash_display, os.path.join(args.out, 'dashboard.png'))
+        return 0
+    except RuntimeError as exc:
+        print('[screenshots] %s (logs in %s)' % (exc, h.logdir))
+        return 1
+    finally:
+        h.stop()
+
+
+if __name__ == '__main__':
+    sys.exit(main())
