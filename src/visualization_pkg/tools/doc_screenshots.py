@@ -63,9 +63,18 @@ class Harness(object):
             time.sleep(0.2)     # harness outside ROS, polling a socket file
         return n
 
-    def grab(self, display, path):
-        subprocess.run(['import', '-display', ':%d' % display, '-window', 'root', path], check=True, timeout=60)
-        print('[screenshots] wrote %s' % path)
+    def grab(self, display, title, path):
+        """Grab the top-level window whose name contains `title` (else the whole screen)."""
+        tree = subprocess.run(['xwininfo', '-display', ':%d' % display, '-root', '-children'], stdout=subprocess.PIPE,
+                              timeout=30).stdout.decode('utf-8', 'replace')
+        window = 'root'
+        for line in tree.splitlines():
+            parts = line.split()
+            if parts and parts[0].startswith('0x') and title in line:
+                window = parts[0]
+                break
+        subprocess.run(['import', '-display', ':%d' % display, '-window', window, path], check=True, timeout=60)
+        print('[screenshots] wrote %s (window %s)' % (path, window))
 
     def stop(self):
         for name, proc in reversed(self.procs):
@@ -100,10 +109,11 @@ def main():
             if time.time() > deadline:
                 raise RuntimeError('no master')
             time.sleep(0.5)     # harness outside ROS
-        rviz_display = h.xvfb('1600x1000')
-        dash_display = h.xvfb('1800x1050')
+        rviz_display = h.xvfb('1600x1000')     # harvest.rviz asks for a 1500x900 window
+        dash_display = h.xvfb('1920x1080')
         h.start('rviz', ['roslaunch', 'visualization_pkg', 'rviz.launch'], rviz_display)
         h.start('dashboard', ['roslaunch', 'visualization_pkg', 'dashboard.launch', 'restore:=false',
+                              'geometry:=1800x1050',
                               'settings_file:=' + os.path.join(h.logdir, 'dashboard.ini')], dash_display)
         import rospy
         from harvest_msgs.msg import MoveRobotActionGoal, PickRecord
@@ -120,8 +130,8 @@ def main():
         moving.wait(120)
         time.sleep(1.5)         # let both windows draw the new goal
         os.makedirs(args.out, exist_ok=True)
-        h.grab(rviz_display, os.path.join(args.out, 'rviz.png'))
-        h.grab(dash_display, os.path.join(args.out, 'dashboard.png'))
+        h.grab(rviz_display, 'harvest.rviz', os.path.join(args.out, 'rviz.png'))
+        h.grab(dash_display, 'Harvest robot dashboard', os.path.join(args.out, 'dashboard.png'))
         return 0
     except RuntimeError as exc:
         print('[screenshots] %s (logs in %s)' % (exc, h.logdir))

@@ -50,15 +50,15 @@ class ImageView(QWidget):
         font.setPointSizeF(8.5)
         font.setBold(True)
         p.setFont(font)
-        caption = self.title
-        if self.image is not None:
-            age = ros_now() - self.received if self.received is not None else 0.0
-            caption += '   %dx%d   %s' % (self.image.width(), self.image.height(),
-                                          ('%.1f s old' % age) if age > 2.0 else 'live')
         band = QRectF(0, 0, self.width(), 18)
         p.fillRect(band, QColor(0, 0, 0, 150))
         p.setPen(QColor('#ffffff'))
-        p.drawText(band.adjusted(6, 0, -6, 0), Qt.AlignVCenter | Qt.AlignLeft, caption)
+        p.drawText(band.adjusted(6, 0, -6, 0), Qt.AlignVCenter | Qt.AlignLeft, self.title)
+        if self.image is not None:
+            age = ros_now() - self.received if self.received is not None else 0.0
+            info = '%.1f s old' % age if age > 2.0 else '%dx%d' % (self.image.width(), self.image.height())
+            p.setPen(QColor('#ffcc80') if age > 2.0 else QColor('#b0bec5'))
+            p.drawText(band.adjusted(6, 0, -6, 0), Qt.AlignVCenter | Qt.AlignRight, info)
         if self.image is None:
             p.setPen(QColor('#90a4ae'))
             p.drawText(QRectF(self.rect()), Qt.AlignCenter, self.error or 'no image yet')

@@ -46,6 +46,15 @@ class CycleTimePlot(QWidget):
         index = names.index(name) if name in names else len(names)
         return QColor(STAGE_PALETTE[index % len(STAGE_PALETTE)])
 
+    def _legend_rows(self, p):
+        rows, x = (1 if self.stats.stage_names else 0), 6.0
+        for name in self.stats.stage_names:
+            w = p.fontMetrics().boundingRect(name.replace('DO_', '').lower()).width() + 20
+            if x + w > self.width() - 4:
+                rows, x = rows + 1, 6.0
+            x += w
+        return rows
+
     def paintEvent(self, _event):
         p = QPainter(self)
         p.setRenderHint(QPainter.Antialiasing)
@@ -54,7 +63,8 @@ class CycleTimePlot(QWidget):
         font.setPointSizeF(7.5)
         p.setFont(font)
         fruits = self.stats.fruits
-        left, right, top, bottom = 38.0, 10.0, 22.0, 30.0
+        left, right, bottom = 38.0, 10.0, 30.0
+        top = 22.0 + 13.0 * self._legend_rows(p) + 6.0
         area = QRectF(left, top, max(10.0, self.width() - left - right), max(10.0, self.height() - top - bottom))
         p.setPen(QColor('#37474f'))
         bold = QFont(font)
@@ -112,16 +122,16 @@ class CycleTimePlot(QWidget):
             p.setPen(QPen(QColor('#1b5e20'), 1.2, Qt.DashLine))
             p.drawLine(QPointF(area.left(), y), QPointF(area.right(), y))
             p.drawText(QRectF(area.right() - 150, y - 14, 148, 12), Qt.AlignRight, 'mean pick %.1f s' % mean)
-        # legend: stage colours
-        x = 190.0
+        # legend: stage colours, wrapped under the title
+        x, y = 6.0, 20.0
         for name in self.stats.stage_names:
             label = name.replace('DO_', '').lower()
-            w = p.fontMetrics().boundingRect(label).width() + 18
+            w = p.fontMetrics().boundingRect(label).width() + 20
             if x + w > self.width() - 4:
-                break
-            p.fillRect(QRectF(x, 6, 9, 9), self.stage_colour(name))
+                x, y = 6.0, y + 13.0
+            p.fillRect(QRectF(x, y + 2, 9, 9), self.stage_colour(name))
             p.setPen(QColor('#455a64'))
-            p.drawText(QRectF(x + 11, 2, w, 16), Qt.AlignLeft | Qt.AlignVCenter, label)
+            p.drawText(QRectF(x + 11, y - 1, w, 14), Qt.AlignLeft | Qt.AlignVCenter, label)
             x += w
         p.setPen(QPen(QColor('#90a4ae'), 1))
         p.drawLine(QPointF(area.left(), area.bottom()), QPointF(area.right(), area.bottom()))

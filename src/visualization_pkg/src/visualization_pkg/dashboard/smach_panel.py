@@ -162,7 +162,7 @@ class StateMachinePanel(Panel):
         if changed:
             relayout = old_initial != list(msg.initial_states) or self._follow()
             self._schedule(relayout)
-        if self.model.owner_of(self._selected or '') == msg.path:
+        if self.model.owner_of(self._selected) == msg.path if self._selected else changed:
             self._show_userdata()
 
     # --- drawing ------------------------------------------------------------------------------------
@@ -208,6 +208,8 @@ class StateMachinePanel(Panel):
         else:
             text = '(no introspection yet)'
         self.active_label.setText('Active: ' + text)
+        if not self._selected:
+            self._show_userdata()
 
     def measure(self, text):
         width = getattr(self._metrics, 'horizontalAdvance', self._metrics.width)
@@ -359,25 +361,33 @@ class StateMachinePanel(Panel):
         self._show_userdata()
 
     def _show_userdata(self):
+        """Userdata of the selected state's container; with nothing selected, of the deepest active one."""
         key = self._selected
         if '/:' in key:
             key = key.rpartition('/:')[0]
-        owner = self.model.owner_of(key) if key else None
-        if owner is None:
+        auto = not key
+        owner = self.model.owner_of(key) if key else self.model.deepest_active_container()
+        if owner is None or owner not in self.model.containers:
             self.ud_label.setText('Userdata: click a state')
             self.ud_tree.clear()
+            self._shown_userdata = None
             return
         c = self.model.containers[owner]
-        if self._shown_userdata == (owner, c.local_data):
+        if self._shown_userdata == (owner, c.local_data, auto):
             return
-        self._shown_userdata = (owner, c.local_data)
+        self._shown_userdata = (owner, c.local_data, auto)
         data, error = userdata.decode(c.local_data)
+        if auto:
+            note = ' <span style="color:#757575">(active; click a state)</span>'
+        elif owner != key:
+            note = ' (selected %s)' % key.rpartition('/')[2]
+        else:
+            note = ''
         self.ud_label.setText('Userdata of <b>%s</b>%s%s' % (
-            owner.rpartition('/')[2], '' if owner == key else ' (selected %s)' % key.rpartition('/')[2],
-            ('<br><span style="color:#c62828">%s</span>' % error) if error else ''))
+            owner.rpartition('/')[2], note, ('<br><span style="color:#c62828">%s</span>' % error) if error else ''))
         self.ud_label.setToolTip(owner)
         self.ud_tree.clear()
-        summary, kids = userdata.describe(data)
+        _summary, kids = userdata.describe(data)
         self._fill(self.ud_tree.invisibleRootItem(), kids)
         self.ud_tree.expandToDepth(0)
 
