@@ -6,7 +6,7 @@ Xvfb display and the dashboard (launch/dashboard.launch) on another, waits until
 finished a few fruit and an arm is moving, then grabs both screens with ImageMagick `import`.
 
 Usage (workspace built and sourced; Debian packages xvfb and imagemagick):
-  src/visualization_pkg/tools/doc_screenshots.py [--out docs] [--fruit 2] [--time-scale 2]
+  python3 src/visualization_pkg/tools/doc_screenshots.py [--out docs] [--fruit 2] [--time-scale 2]
 """
 import argparse
 import os

@@ -121,7 +121,10 @@ class CycleTimePlot(QWidget):
             y = y_of(mean)
             p.setPen(QPen(QColor('#1b5e20'), 1.2, Qt.DashLine))
             p.drawLine(QPointF(area.left(), y), QPointF(area.right(), y))
-            p.drawText(QRectF(area.right() - 150, y - 14, 148, 12), Qt.AlignRight, 'mean pick %.1f s' % mean)
+            label = 'mean pick %.1f s' % mean
+            lw = p.fontMetrics().boundingRect(label).width() + 6
+            p.fillRect(QRectF(area.left() + 2, y - 14, lw, 12), QColor(255, 255, 255, 200))
+            p.drawText(QRectF(area.left() + 4, y - 14, lw, 12), Qt.AlignLeft, label)
         # legend: stage colours, wrapped under the title
         x, y = 6.0, 20.0
         for name in self.stats.stage_names:
