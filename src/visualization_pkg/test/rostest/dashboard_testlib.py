@@ -12,7 +12,10 @@ def make_app(platform='offscreen'):
     """The QApplication of the test process (offscreen unless told otherwise, e.g. xcb under Xvfb)."""
     if platform:
         os.environ['QT_QPA_PLATFORM'] = platform
-    faulthandler.enable()                  # a crash in Qt prints the Python stacks
+    try:                                   # a crash in Qt prints the Python stacks
+        faulthandler.enable(file=sys.__stderr__)
+    except (AttributeError, ValueError, OSError):   # rosunit may replace the std streams
+        pass
     sys.excepthook = _record_exception     # PyQt5 aborts on an exception in a slot without a hook
     from python_qt_binding.QtWidgets import QApplication
     return QApplication.instance() or QApplication(['dashboard_test'])
