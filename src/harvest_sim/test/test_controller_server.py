@@ -99,6 +99,8 @@ def test_injected_delay(rig):
 
 def test_drop_and_stop_listening(rig):
     _, _, server, client = rig
+    # a served request proves the server has accepted the connection (accept is asynchronous)
+    assert not client.read_holding_registers(0, 1, slave=1).isError()
     assert server.connection_count() == 1
     assert server.drop_connections() == 1
     assert client.read_holding_registers(0, 1, slave=1).isError()
