@@ -116,15 +116,20 @@ def main():
                               'geometry:=1800x1050',
                               'settings_file:=' + os.path.join(h.logdir, 'dashboard.ini')], dash_display)
         import rospy
+        from std_msgs.msg import String
         from harvest_msgs.msg import MoveRobotActionGoal, PickRecord
         rospy.init_node('doc_screenshots', anonymous=True, disable_signals=True)
         records, moving = [], threading.Event()
         rospy.Subscriber('/mission/pick_records', PickRecord, records.append)
         rospy.Subscriber('/move_robot/goal', MoveRobotActionGoal, lambda _m: moving.set())
+        ended = []
+        rospy.Subscriber('/mission/summary', String, lambda m: ended.append(m.data))
         deadline = time.time() + args.timeout
         while len([r for r in records if r.outcome == PickRecord.OUTCOME_PICKED]) < args.fruit:
             if time.time() > deadline:
                 raise RuntimeError('only %d fruit within the timeout' % len(records))
+            if ended:
+                raise RuntimeError('the mission ended after %d fruit: %s' % (len(records), ended[-1]))
             time.sleep(1.0)     # harness outside ROS
         moving.clear()
         moving.wait(120)
