@@ -10,6 +10,7 @@ Numbers: 32-bit values are signed two's complement in two consecutive registers,
 """
 
 import math
+from motion_pkg.modbus_map import join_int32, split_int32  # noqa: F401 (the one int32 codec of the wire format)
 
 MAP_VERSION = 1
 IDENTITY = 0x4843             # "HC": harvest controller
@@ -110,21 +111,6 @@ def feedback_address(axis, offset):
 
 def command_address(axis, offset):
     return COMMAND_BASE + COMMAND_STRIDE * axis + offset
-
-
-def split_int32(value):
-    """Signed int32 -> [high word, low word]."""
-    value = int(value)
-    if not -2 ** 31 <= value < 2 ** 31:
-        raise ValueError('value %d does not fit in int32' % value)
-    raw = value & 0xFFFFFFFF
-    return [raw >> 16, raw & 0xFFFF]
-
-
-def join_int32(high, low):
-    """[high word, low word] -> signed int32."""
-    raw = ((int(high) & 0xFFFF) << 16) | (int(low) & 0xFFFF)
-    return raw - 2 ** 32 if raw >= 2 ** 31 else raw
 
 
 def clamp_int32(value):
