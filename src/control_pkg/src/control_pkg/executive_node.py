@@ -47,7 +47,7 @@ DEFAULTS = {
         'self_test': 300.0, 'move_base': 180.0, 'tomato_scan': 30.0, 'spatial_temporal': 30.0,
         'kinematics': 5.0, 'move_robot': 60.0, 'end_effector': 10.0, 'visual_servo': 90.0,
     },
-    'retries': {'move_base': 1, 'tomato_scan': 1, 'spatial_temporal': 1, 'move_robot': 1},
+    'retries': {'move_base': 1, 'tomato_scan': 1, 'spatial_temporal': 1, 'move_robot': 1, 'end_effector': 1},
     'home': {'left': [0.0, 0.7854, 2.3562], 'right': [0.0, -0.7854, -2.3562]},
     'collection_box_right': [0.05, -2.159, 1.962],
     'self_test_components': [],
