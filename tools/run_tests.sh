@@ -19,7 +19,8 @@ echo "=== catkin_lint"
 if catkin_lint -W2 --strict --quiet src; then echo "catkin_lint: clean"; else FAILED_STEPS+=(catkin_lint); fi
 
 echo "=== Python 3.8 compatibility gate (vermin)"
-mapfile -t PYFILES < <(git ls-files '*.py'; grep -rlE '^#!.*python' --include='*' src/*/scripts src/*/nodes src/*/test tools 2>/dev/null | sort -u)
+# every .py file (git's list; in a Docker image without .git, find's) and every python script
+mapfile -t PYFILES < <({ git ls-files '*.py' 2>/dev/null | grep . || find src tools -name '*.py' -not -path '*/__pycache__/*'; } ; grep -rlE '^#!.*python' --include='*' src/*/scripts src/*/nodes src/*/test tools 2>/dev/null | sort -u)
 if vermin -q --no-tips --violations --eval-annotations --target=3.8- "${PYFILES[@]}" >"$RESULTS/vermin.txt" 2>&1; then
   echo "vermin: all ${#PYFILES[@]} files run on Python 3.8"
 else
