@@ -17,6 +17,7 @@ import sys
 import tempfile
 import threading
 import time
+from rospy.rostime import wallsleep  # wall time on purpose: the harness measures sim vs wall time
 
 
 def free_port():
@@ -60,7 +61,7 @@ class Harness(object):
         while not os.path.exists('/tmp/.X11-unix/X%d' % n):
             if time.time() > deadline:
                 raise RuntimeError('Xvfb :%d did not start' % n)
-            time.sleep(0.2)     # harness outside ROS, polling a socket file
+            wallsleep(0.2)     # harness outside ROS, polling a socket file
         return n
 
     def grab(self, display, title, path):
@@ -108,7 +109,7 @@ def main():
         while not rosgraph.is_master_online(h.master):
             if time.time() > deadline:
                 raise RuntimeError('no master')
-            time.sleep(0.5)     # harness outside ROS
+            wallsleep(0.5)     # harness outside ROS
         rviz_display = h.xvfb('1600x1000')     # harvest.rviz asks for a 1500x900 window
         dash_display = h.xvfb('1920x1080')
         h.start('rviz', ['roslaunch', 'visualization_pkg', 'rviz.launch'], rviz_display)
@@ -130,10 +131,10 @@ def main():
                 raise RuntimeError('only %d fruit within the timeout' % len(records))
             if ended:
                 raise RuntimeError('the mission ended after %d fruit: %s' % (len(records), ended[-1]))
-            time.sleep(1.0)     # harness outside ROS
+            wallsleep(1.0)     # harness outside ROS
         moving.clear()
         moving.wait(120)
-        time.sleep(1.5)         # let both windows draw the new goal
+        wallsleep(1.5)         # let both windows draw the new goal
         os.makedirs(args.out, exist_ok=True)
         h.grab(rviz_display, 'harvest.rviz', os.path.join(args.out, 'rviz.png'))
         h.grab(dash_display, 'Harvest robot dashboard', os.path.join(args.out, 'dashboard.png'))

@@ -8,7 +8,7 @@
    this process as a fake controller moving the cart and the left arm all the time (worst
    case: every camera frame is rendered anew). Prints per phase the achieved time scale
    (simulated / wall seconds), frames per simulated second and the CPU share of every node.
-This is a tool, not a node: it waits with time.sleep and reads /proc.
+This is a tool, not a node: it waits in wall time (rospy.rostime.wallsleep) and reads /proc.
 """
 
 import argparse
@@ -22,6 +22,7 @@ import threading
 import time
 
 import numpy as np
+from rospy.rostime import wallsleep  # wall time on purpose: the harness measures sim vs wall time
 
 
 def _paths():
@@ -127,7 +128,7 @@ def live_run(scenario_name, seconds, time_scale, controller):
         while not master.is_online():
             if time.time() > deadline:
                 raise RuntimeError('roscore did not come up')
-            time.sleep(0.2)
+            wallsleep(0.2)
         launch = subprocess.Popen(
             ['roslaunch', 'harvest_sim', 'sim_robot.launch', 'scenario:=' + scenario_name,
              'time_scale:=%g' % time_scale, 'controller:=%s' % str(controller).lower()],
@@ -191,16 +192,16 @@ def _measure(seconds, controller, launch_pid):
             ready = len(clock) > 10 and counts['stereo'] and counts['hand']
         if ready:
             break
-        time.sleep(0.2)
+        wallsleep(0.2)
     phases = [('still', None)] if controller else [('still', None), ('moving', move)]
     results = []
     for name, callback in phases:
         timer = rospy.Timer(rospy.Duration(1.0 / 60.0), callback) if callback else None
-        time.sleep(2.0)                                # warm-up
+        wallsleep(2.0)                                # warm-up
         with lock:
             start = (time.time(), clock[-1][1], dict((k, len(v)) for k, v in counts.items()))
         cpu0 = _cpu_by_node(launch_pid)
-        time.sleep(seconds / len(phases))
+        wallsleep(seconds / len(phases))
         cpu1 = _cpu_by_node(launch_pid)
         with lock:
             end = (time.time(), clock[-1][1], dict((k, len(v)) for k, v in counts.items()))
