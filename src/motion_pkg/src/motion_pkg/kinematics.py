@@ -142,7 +142,19 @@ def segment_distance(p1, q1, p2, q2):
                 t, s = 0.0, min(max(-c / a, 0.0), 1.0)
             elif t > 1.0:
                 t, s = 1.0, min(max((b - c) / a, 0.0), 1.0)
-    return float(np.linalg.norm((p1 + d1 * s) - (p2 + d2 * t)))
+    best = float(np.linalg.norm((p1 + d1 * s) - (p2 + d2 * t)))
+    # near-degenerate (sub-micrometre) segments lose precision in the closed form: the
+    # endpoint-to-segment distances bound the answer exactly
+    return min(best, _point_segment(p1, p2, q2), _point_segment(q1, p2, q2),
+               _point_segment(p2, p1, q1), _point_segment(q2, p1, q1))
+
+
+def _point_segment(p, a, b):
+    """Distance from point p to segment a-b."""
+    d = b - a
+    dd = d.dot(d)
+    t = 0.0 if dd <= 0.0 else min(max((p - a).dot(d) / dd, 0.0), 1.0)
+    return float(np.linalg.norm(p - (a + d * t)))
 
 
 class RobotGeometry(object):
