@@ -15,6 +15,8 @@ ROOT (StateMachine)
       NEXT_TARGET                        next target of the planned order, or next point
       PICK_TARGET (StateMachine)         one tomato
         RIGHT_ARM: DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_MOVE_ENDEFFECTOR (suction on)
+                   -> DO_KINEMATICS_PULL -> DO_MOVE_ROBOT_PULL (draw the held fruit out of its
+                   cluster by `right_pull`, so the left arm's camera and shear can get at it)
         LEFT_ARM:  DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_VISUALSERVOING -> DO_MOVE_ENDEFFECTOR (cut)
         PLACE:     DO_MOVE_ROBOT (left arm home) -> DO_MOVE_ROBOT_BOX (right arm to the box)
                    -> DO_MOVE_ENDEFFECTOR (suction off)
@@ -26,6 +28,7 @@ ROOT (StateMachine)
 A state's outcomes and keys are documented in its docstring as
 ``Outcomes: ...`` / ``Input keys: ...`` / ``Output keys: ...``.
 """
+import copy
 import threading
 
 import rospy
@@ -297,6 +300,8 @@ def build_state_machine(context, estop_event, resume_event):
     retries = cfg['retries']
     peduncle_gap = float(cfg['peduncle_gap'])
     approach = float(cfg['left_approach_standoff'])
+    pull = [float(v) for v in cfg.get('right_pull', [0.0, 0.0, 0.0])]
+    do_pull = any(v != 0.0 for v in pull)
 
     def action(label, key, spec, **kwargs):
         return HarvestActionState(context, label, names[key], spec, retries=retries.get(key, 0),
@@ -351,6 +356,31 @@ def build_state_machine(context, estop_event, resume_event):
                                   arm=ARM_LEFT, standoff=approach)
         return cb
 
+    def pull_goal_cb(ud, goal):
+        t = ud.target
+        return KinematicsGoal(target=_point_goal(t.pick_point, *pull), arm=ARM_RIGHT,
+                              standoff=float(t.radius))
+
+    def pull_kin_result_cb(ud, status, result):
+        if result is None:
+            return None
+        if not result.reachable:
+            # not an error: the left arm then works on the fruit where it hangs
+            rospy.logwarn('executive: cannot draw the fruit out (%s); cutting it in place',
+                          result.reason)
+            return 'unreachable'
+        ud.joint_goal = list(result.joint_goal.positions)
+        return None
+
+    def pull_move_result_cb(ud, status, result):
+        verdict = move_result_cb(ud, status, result)
+        if verdict is None and status == 3:
+            # the held fruit moved with the suction sleeve: the left arm aims at its new place
+            moved = copy.deepcopy(ud.target)
+            moved.pick_point = _point_goal(ud.target.pick_point, *pull)
+            ud.target = moved
+        return verdict
+
     def kin_result_cb(ud, status, result):
         if result is None:
             return None
@@ -396,7 +426,7 @@ def build_state_machine(context, estop_event, resume_event):
     # --- one target ---------------------------------------------------------------------------
     def right_arm():
         sm = smach.StateMachine(outcomes=['succeeded', 'unreachable', 'lost', 'aborted', 'preempted'],
-                                input_keys=['target'])
+                                input_keys=['target'], output_keys=['target'])
         sm.userdata.joint_goal = []
         with sm:
             smach.StateMachine.add('DO_KINEMATICS', action(
@@ -411,7 +441,18 @@ def build_state_machine(context, estop_event, resume_event):
             smach.StateMachine.add('DO_MOVE_ENDEFFECTOR', action(
                 'DO_MOVE_ENDEFFECTOR', 'end_effector', EndEffectorAction,
                 goal=EndEffectorGoal(command=EndEffectorGoal.SUCTION_ON), result_cb=ee_result_cb),
-                transitions={'aborted': 'lost'})
+                transitions={'aborted': 'lost',
+                             'succeeded': 'DO_KINEMATICS_PULL' if do_pull else 'succeeded'})
+            if do_pull:
+                smach.StateMachine.add('DO_KINEMATICS_PULL', action(
+                    'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=pull_goal_cb,
+                    input_keys=['target'], output_keys=['joint_goal'], result_cb=pull_kin_result_cb,
+                    outcomes=['unreachable']),
+                    transitions={'succeeded': 'DO_MOVE_ROBOT_PULL', 'unreachable': 'succeeded'})
+                smach.StateMachine.add('DO_MOVE_ROBOT_PULL', action(
+                    'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, goal_cb=move_goal_cb(ARM_RIGHT),
+                    input_keys=['joint_goal', 'target'], output_keys=['target'],
+                    result_cb=pull_move_result_cb))
         return sm
 
     def left_arm():

@@ -38,6 +38,7 @@ DEFAULTS = {
     'server_wait_timeout': 10.0,
     'peduncle_gap': 0.01,
     'left_approach_standoff': 0.03,
+    'right_pull': [-0.08, 0.0, 0.0],
     'actions': {
         'self_test': 'self_test', 'move_base': 'move_base', 'tomato_scan': 'tomato_scan',
         'spatial_temporal': 'spatial_temporal', 'kinematics': 'kinematics', 'move_robot': 'move_robot',
@@ -70,6 +71,10 @@ def merged_config(overrides):
             if len(joints) != 3 or any(math.isnan(float(j)) for j in joints):
                 raise ValueError('%s/%s must be 3 finite joint values [lift, boom, forearm], got %r'
                                  % (key, arm, joints))
+    pull = cfg['right_pull']
+    if not isinstance(pull, (list, tuple)) or len(pull) != 3 or \
+            not all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in pull):
+        raise ValueError('right_pull must be 3 finite numbers [dx, dy, dz] in m, got %r' % (pull,))
     return cfg
 
 

@@ -7,7 +7,7 @@ import unittest
 import rospy
 import rostest
 from smach_msgs.msg import SmachContainerStatus, SmachContainerStructure
-from std_msgs.msg import Bool, Int32, String
+from std_msgs.msg import Bool, Int32, Int32MultiArray, String
 from std_srvs.srv import Trigger
 
 from harvest_msgs.msg import PickRecord
@@ -128,6 +128,12 @@ class ExecutiveTest(unittest.TestCase):
 
     def check_plan(self):
         w = self.w
+        # the plan is latched before the mission starts (a farm plan comes from the uploader)
+        plan = rospy.wait_for_message('plan/picking_points', Int32MultiArray, timeout=WAIT)
+        self.assertEqual(list(plan.data), [2, 0])
+        rospy.wait_for_service('task_planner/start', timeout=WAIT)
+        resp = rospy.ServiceProxy('task_planner/start', Trigger)()
+        self.assertTrue(resp.success, resp.message)
         self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
         s = w.summary
         self.assertEqual(s['outcome'], 'succeeded', s)

@@ -152,6 +152,53 @@ def robust_fit_circle(xs, ys, iterations=2, keep=0.8):
     return circle
 
 
+def _support(circle, xs, ys, tol=1.0, rel=0.03):
+    """Number of points within tol + rel * r of the circle."""
+    cx, cy, r = circle
+    return int(np.count_nonzero(np.abs(np.hypot(xs - cx, ys - cy) - r) <= tol + rel * r))
+
+
+def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
+    """Circle that the largest part of an outline follows (RANSAC over point triples, then a
+    Kasa refit on its inliers), with r in [r_min, r_max]; None when none is found.
+
+    A fruit partly behind a leaf has an outline of its own arc plus the leaf's edge; a
+    least-squares fit over both shrinks the circle, the arc's own circle does not. Triples are
+    drawn from a fixed seed, so the result is repeatable.
+    """
+    n = len(xs)
+    if n < 8:
+        return None
+    rng = np.random.default_rng(seed)
+    idx = rng.integers(0, n, size=(trials, 3))
+    x1, x2, x3 = xs[idx[:, 0]], xs[idx[:, 1]], xs[idx[:, 2]]
+    y1, y2, y3 = ys[idx[:, 0]], ys[idx[:, 1]], ys[idx[:, 2]]
+    d = 2.0 * (x1 * (y2 - y3) + x2 * (y3 - y1) + x3 * (y1 - y2))
+    ok = np.abs(d) > 1e-6
+    if not ok.any():
+        return None
+    d = np.where(ok, d, 1.0)
+    s1, s2, s3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
+    cx = (s1 * (y2 - y3) + s2 * (y3 - y1) + s3 * (y1 - y2)) / d
+    cy = (s1 * (x3 - x2) + s2 * (x1 - x3) + s3 * (x2 - x1)) / d
+    r = np.hypot(x1 - cx, y1 - cy)
+    ok &= (r >= r_min) & (r <= r_max)
+    if not ok.any():
+        return None
+    cand = np.flatnonzero(ok)
+    res = np.abs(np.hypot(xs[None, :] - cx[cand, None], ys[None, :] - cy[cand, None])
+                 - r[cand, None])
+    support = (res <= 1.0 + 0.03 * r[cand, None]).sum(axis=1)
+    best = cand[int(np.argmax(support))]
+    inliers = res[int(np.argmax(support))] <= 1.0 + 0.03 * r[best]
+    if inliers.sum() < 8:
+        return None
+    refit = fit_circle(xs[inliers], ys[inliers])
+    if refit is None or not r_min <= refit[2] <= r_max:
+        return float(cx[best]), float(cy[best]), float(r[best])
+    return refit
+
+
 class TomatoDetector(object):
     """Finds tomatoes in BGR images; parameters as in DEFAULTS."""
 
@@ -310,6 +357,7 @@ class TomatoDetector(object):
         outer[gy[on_border], gx[on_border]] = False
         # hypothesis A: one fruit per distance-transform peak (power-diagram parts)
         candidates = []          # (part mask, circle)
+        peak_rs = []
         for k, (px, py, pr) in enumerate(peaks):
             part = (parts == k)
             if part.sum() < math.pi * r_min * r_min * 0.3:
@@ -317,6 +365,9 @@ class TomatoDetector(object):
             circle = self._fit_part(part, outer, pr)
             if circle is not None:
                 candidates.append((part, circle))
+                peak_rs.append(pr)
+        if len(candidates) > 1:
+            candidates = self._join_parts(candidates, peak_rs, outer)
         if len(peaks) > 1:
             # hypothesis B: one fruit seen in pieces (a leaf or stem in front of it) also has
             # several peaks; keep it whole when one circle explains its outline at least as
@@ -361,6 +412,47 @@ class TomatoDetector(object):
                 fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma))
         return results
 
+    def _join_parts(self, candidates, peak_rs, outer):
+        """Hypothesis C: two neighbouring parts are one fruit (a leaf or calyx notch in its
+        outline made two distance-transform peaks) when one circle explains their joint outline
+        within `single_fit_residual_px`, at least as well as the two parts explain theirs, and
+        holds `min_inside` of their pixels. Greedy, best pair first."""
+        p = self.params
+        kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+        cands = [(part, circle, pr) for (part, circle), pr in zip(candidates, peak_rs)]
+        while len(cands) > 1:
+            best = None
+            for i in range(len(cands)):
+                grown = None
+                for j in range(i + 1, len(cands)):
+                    (xi, yi, ri), (xj, yj, rj) = cands[i][1][:3], cands[j][1][:3]
+                    if math.hypot(xi - xj, yi - yj) > 0.9 * (ri + rj):
+                        continue      # two whole fruit side by side, not halves of one
+                    if grown is None:
+                        grown = cv2.dilate(cands[i][0].astype(np.uint8), kernel) > 0
+                    if not np.any(grown & cands[j][0]):
+                        continue
+                    union = cands[i][0] | cands[j][0]
+                    fit = self._fit_part(union, outer, max(cands[i][2], cands[j][2]))
+                    if fit is None or fit[3] * fit[2] > p['single_fit_residual_px']:
+                        continue
+                    ai, aj = float(cands[i][0].sum()), float(cands[j][0].sum())
+                    split = (ai * cands[i][1][3] + aj * cands[j][1][3]) / (ai + aj)
+                    if fit[3] > split:
+                        continue
+                    pys, pxs = np.nonzero(union)
+                    cx, cy, r = fit[:3]
+                    if np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
+                        continue
+                    if best is None or fit[3] < best[0]:
+                        best = (fit[3], i, j, union, fit)
+            if best is None:
+                break
+            _, i, j, union, fit = best
+            joined = (union, fit, max(cands[i][2], cands[j][2]))
+            cands = [c for k, c in enumerate(cands) if k not in (i, j)] + [joined]
+        return [(part, circle) for part, circle, _ in cands]
+
     @staticmethod
     def _fit_part(part, outer, peak_r):
         """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
@@ -383,6 +475,14 @@ class TomatoDetector(object):
         xs = xs.astype(np.float64)
         ys = ys.astype(np.float64)
         circle = robust_fit_circle(xs, ys)
+        support = _support(circle, xs, ys) if circle is not None else 0
+        arc = None
+        if support < 0.9 * len(xs):
+            arc = arc_fit_circle(xs, ys, 0.8 * peak_r, 3.0 * peak_r + 2.0)
+        if arc is not None and _support(arc, xs, ys) > support:
+            # the outline is partly a straight or concave cut (a leaf or stem in front of the
+            # fruit): the circle that most of the outline follows is the fruit
+            circle = arc
         if circle is None:
             return fallback
         cx, cy, r = circle
