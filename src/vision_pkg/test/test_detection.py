@@ -6,7 +6,8 @@ import pytest
 
 import synthetic_scene as scene
 from vision_pkg import detection
-from vision_pkg.detection import TomatoDetector, fit_circle, robust_fit_circle, stage_of
+from vision_pkg.detection import (TomatoDetector, arc_fit_circle, fit_circle, robust_fit_circle,
+                                  stage_of)
 
 
 def _iou(a, b):
@@ -91,6 +92,36 @@ def test_circle_fit_ignores_outliers():
     cx, cy, r = robust_fit_circle(xs, ys, iterations=3, keep=0.9)
     assert (cx, cy, r) == pytest.approx((40, 30, 25), abs=0.5)
     assert fit_circle(np.array([1.0, 2.0]), np.array([1.0, 2.0])) is None
+
+
+def test_arc_fit_follows_the_arc_not_the_leaf_edge():
+    # the upper half of a fruit above a leaf: a half circle and its straight lower edge
+    a = np.linspace(math.pi, 2 * math.pi, 80)
+    xs = np.concatenate([40 + 25 * np.cos(a), np.linspace(15, 65, 50)])
+    ys = np.concatenate([30 + 25 * np.sin(a), np.full(50, 30.0)])
+    least_squares = robust_fit_circle(xs, ys)
+    assert least_squares[2] < 23.0                 # the edge pulls the least-squares circle in
+    cx, cy, r = arc_fit_circle(xs, ys, 10.0, 60.0)
+    assert (cx, cy, r) == pytest.approx((40, 30, 25), abs=0.5)
+    assert arc_fit_circle(xs, ys, 10.0, 60.0) == (cx, cy, r)     # repeatable (fixed seed)
+    assert arc_fit_circle(xs, ys, 30.0, 60.0) is None or arc_fit_circle(xs, ys, 30.0, 60.0)[2] >= 30.0
+    assert arc_fit_circle(xs[:5], ys[:5], 10.0, 60.0) is None
+
+
+def test_leaf_cut_fruit_beside_another_is_one_detection_with_its_full_circle():
+    # a ripe fruit whose lower half hangs behind a leaf, a thin stem in front of its upper half,
+    # touching a neighbour: one colour region with two fruit, the cut fruit in two parts
+    fruits = [scene.Fruit(0.0, 0.0, 0.5, 0.035, 0.92), scene.Fruit(-0.07, 0.0, 0.5, 0.033, 0.95)]
+    leaves = [scene.Leaf(0.0, 0.035, 0.46, 0.05, 0.035), scene.Leaf(0.004, -0.01, 0.45, 0.0015, 0.05)]
+    image, _, _ = scene.render(fruits, leaves, backdrop_depth=0.95)
+    dets = TomatoDetector().detect(image)
+    assert len(dets) == 2, dets
+    for fruit in fruits:
+        u, v = scene.project(fruit.centre)
+        x0, _, x1, _ = scene.gt_box(fruit)
+        det = min(dets, key=lambda d: math.hypot(d.u - u, d.v - v))
+        assert math.hypot(det.u - u, det.v - v) < 0.05 * (x1 - x0), (fruit.centre, dets)
+        assert det.radius_px == pytest.approx((x1 - x0) / 2.0, rel=0.08), (fruit.centre, dets)
 
 
 def test_unknown_parameter_rejected():

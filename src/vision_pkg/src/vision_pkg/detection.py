@@ -42,6 +42,8 @@ DEFAULTS = {
     'peak_separation': 0.75,    # NMS: a peak closer than this x the stronger radius is merged
     'single_fit_residual_px': 0.9,  # a region whose outline fits one circle within this median
                                     # misfit [px at ~scale] (and better than its parts) is one fruit
+    'join_residual_px': 1.2,    # two overlapping parts whose joint outline fits one circle within
+                                # this median misfit [px at ~scale] are one fruit (leaf-cut outline)
     'hue_split': 15,            # OpenCV hue: red/orange pass up to here, then the whole band
     'open_px': 5,               # opening kernel [px at ~scale]: removes stems and twine
     'close_px': 5,              # closing kernel [px at ~scale]: bridges stems in front of fruit
@@ -414,9 +416,10 @@ class TomatoDetector(object):
 
     def _join_parts(self, candidates, peak_rs, outer):
         """Hypothesis C: two neighbouring parts are one fruit (a leaf or calyx notch in its
-        outline made two distance-transform peaks) when one circle explains their joint outline
-        within `single_fit_residual_px`, at least as well as the two parts explain theirs, and
-        holds `min_inside` of their pixels. Greedy, best pair first."""
+        outline made two distance-transform peaks) when their circles overlap, one circle
+        follows their joint outline within `join_residual_px` (median) and holds `min_inside`
+        of their pixels. (Small parts fit their own short arcs almost exactly, so comparing
+        with the parts' fits, as hypothesis B does, would keep them apart.) Greedy, best first."""
         p = self.params
         kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         cands = [(part, circle, pr) for (part, circle), pr in zip(candidates, peak_rs)]
@@ -434,11 +437,7 @@ class TomatoDetector(object):
                         continue
                     union = cands[i][0] | cands[j][0]
                     fit = self._fit_part(union, outer, max(cands[i][2], cands[j][2]))
-                    if fit is None or fit[3] * fit[2] > p['single_fit_residual_px']:
-                        continue
-                    ai, aj = float(cands[i][0].sum()), float(cands[j][0].sum())
-                    split = (ai * cands[i][1][3] + aj * cands[j][1][3]) / (ai + aj)
-                    if fit[3] > split:
+                    if fit is None or fit[3] * fit[2] > p['join_residual_px']:
                         continue
                     pys, pxs = np.nonzero(union)
                     cx, cy, r = fit[:3]
