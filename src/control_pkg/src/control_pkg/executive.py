@@ -17,6 +17,8 @@ ROOT (StateMachine)
         RIGHT_ARM: DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_MOVE_ENDEFFECTOR (suction on)
                    -> DO_KINEMATICS_PULL -> DO_MOVE_ROBOT_PULL (draw the held fruit out of its
                    cluster by `right_pull`, so the left arm's camera and shear can get at it)
+                   -> DO_TOMATO_SCAN_HELD (the stereo head locates the presented fruit again,
+                   now clear of the leaves and fruit that hid part of it)
         LEFT_ARM:  DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_VISUALSERVOING -> DO_MOVE_ENDEFFECTOR (cut)
         PLACE:     DO_MOVE_ROBOT (left arm home) -> DO_MOVE_ROBOT_BOX (right arm to the box)
                    -> DO_MOVE_ENDEFFECTOR (suction off)
@@ -29,6 +31,7 @@ A state's outcomes and keys are documented in its docstring as
 ``Outcomes: ...`` / ``Input keys: ...`` / ``Output keys: ...``.
 """
 import copy
+import math
 import threading
 
 import rospy
@@ -302,6 +305,7 @@ def build_state_machine(context, estop_event, resume_event):
     approach = float(cfg['left_approach_standoff'])
     pull = [float(v) for v in cfg.get('right_pull', [0.0, 0.0, 0.0])]
     do_pull = any(v != 0.0 for v in pull)
+    relocate_tolerance = float(cfg.get('relocate_tolerance', 0.0))
 
     def action(label, key, spec, **kwargs):
         return HarvestActionState(context, label, names[key], spec, retries=retries.get(key, 0),
@@ -381,6 +385,35 @@ def build_state_machine(context, estop_event, resume_event):
             ud.target = moved
         return verdict
 
+    def held_scan_goal_cb(ud, goal):
+        return TomatoScanGoal(picking_point=-1, target_frame=cfg['base_frame'])
+
+    def held_scan_result_cb(ud, status, result):
+        if result is None or not result.success:
+            return None            # keep the estimate from the first scan
+        t = ud.target
+        best, best_d = None, relocate_tolerance
+        for cand in result.tomatoes.tomatoes:
+            p = cand.pick_point.point
+            if cand.pick_point.header.frame_id != t.pick_point.header.frame_id or \
+                    not all(math.isfinite(v) for v in (p.x, p.y, p.z)) or not cand.radius > 0.0:
+                continue
+            d = math.sqrt((p.x - t.pick_point.point.x) ** 2 + (p.y - t.pick_point.point.y) ** 2 +
+                          (p.z - t.pick_point.point.z) ** 2)
+            if d <= best_d:
+                best, best_d = cand, d
+        if best is None:
+            rospy.loginfo('executive: held fruit not found again within %.0f mm; keeping its first estimate',
+                          relocate_tolerance * 1e3)
+            return None
+        moved = copy.deepcopy(t)
+        moved.pick_point = best.pick_point
+        moved.radius = best.radius
+        rospy.loginfo('executive: held fruit located again %.1f mm from where it was expected, radius %.1f mm '
+                      '(first scan %.1f mm)', best_d * 1e3, best.radius * 1e3, t.radius * 1e3)
+        ud.target = moved
+        return None
+
     def kin_result_cb(ud, status, result):
         if result is None:
             return None
@@ -452,7 +485,15 @@ def build_state_machine(context, estop_event, resume_event):
                 smach.StateMachine.add('DO_MOVE_ROBOT_PULL', action(
                     'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, goal_cb=move_goal_cb(ARM_RIGHT),
                     input_keys=['joint_goal', 'target'], output_keys=['target'],
-                    result_cb=pull_move_result_cb))
+                    result_cb=pull_move_result_cb),
+                    transitions={'succeeded': 'DO_TOMATO_SCAN_HELD' if relocate_tolerance > 0.0
+                                 else 'succeeded'})
+                if relocate_tolerance > 0.0:
+                    # a failed look is not a fault: the left arm works with the first estimate
+                    smach.StateMachine.add('DO_TOMATO_SCAN_HELD', action(
+                        'DO_TOMATO_SCAN', 'tomato_scan', TomatoScanAction, goal_cb=held_scan_goal_cb,
+                        input_keys=['target'], output_keys=['target'], result_cb=held_scan_result_cb),
+                        transitions={'aborted': 'succeeded'})
         return sm
 
     def left_arm():

@@ -39,6 +39,7 @@ DEFAULTS = {
     'peduncle_gap': 0.01,
     'left_approach_standoff': 0.03,
     'right_pull': [-0.08, 0.0, 0.0],
+    'relocate_tolerance': 0.03,
     'actions': {
         'self_test': 'self_test', 'move_base': 'move_base', 'tomato_scan': 'tomato_scan',
         'spatial_temporal': 'spatial_temporal', 'kinematics': 'kinematics', 'move_robot': 'move_robot',
@@ -75,6 +76,9 @@ def merged_config(overrides):
     if not isinstance(pull, (list, tuple)) or len(pull) != 3 or \
             not all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in pull):
         raise ValueError('right_pull must be 3 finite numbers [dx, dy, dz] in m, got %r' % (pull,))
+    tol = cfg['relocate_tolerance']
+    if not isinstance(tol, (int, float)) or not math.isfinite(float(tol)) or float(tol) < 0.0:
+        raise ValueError('relocate_tolerance must be a finite number >= 0 (m), got %r' % (tol,))
     return cfg
 
 
