@@ -68,3 +68,21 @@ def test_summary_line_format():
                     'mean cycle 28.4 s/fruit (sim), wall 61 s')
     assert 'mean cycle n/a' in mission.summary_line(0, 0, 0, 0, float('nan'), 1.0)
     assert math.isnan(mission.MissionRecorder('x').mean_cycle_time())
+
+
+def test_pull_is_the_first_candidate_clear_of_other_fruit():
+    from control_pkg.mission import choose_pull
+    held = ((0.5, 0.0, 0.9), 0.035)
+    candidates = [(-0.08, 0.0, 0.0), (-0.06, 0.0, -0.05), (-0.04, 0.0, 0.0)]
+    assert choose_pull(held[0], held[1], [], candidates) == candidates[0]
+    # a fruit hanging in front of and above the held one: the straight pull would push the
+    # held fruit's cut point into it; pulling down and out stays clear
+    front = ((0.43, 0.0, 0.97), 0.03)
+    assert choose_pull(held[0], held[1], [front], candidates) == candidates[1]
+    # a fruit right in front: every path goes through it
+    blocking = ((0.44, 0.0, 0.88), 0.035)
+    assert choose_pull(held[0], held[1], [blocking], candidates) is None
+    # a neighbour beside the held fruit (touching it) does not block a pull away from it
+    beside = ((0.5, 0.075, 0.9), 0.035)
+    assert choose_pull(held[0], held[1], [beside], candidates) == candidates[0]
+    assert choose_pull(held[0], held[1], [front], []) is None

@@ -83,10 +83,20 @@ def test_two_robots_every_row_exactly_once_across_server_and_uploader_crashes(db
         assert 0 < at_kill < initial, 'the server must be stopped mid-upload'
         assert all(farm_harness.pending(p) > 0 for p in paths.values())
 
+        def uploader_logs():
+            return dict((r, open(os.path.join(work, 'uploader_%s.log' % r)).read()) for r in paths)
+
         def backing_off():
-            logs = [open(os.path.join(work, 'uploader_%s.log' % r)).read() for r in paths]
-            return all('unreachable' in text for text in logs)
-        farm_harness.wait_for(backing_off, 60, 'both uploaders to notice the server is down')
+            # an uploader that has meanwhile marked its last batch has nothing to send: it is
+            # idle and never asks the server, so it cannot notice
+            return all('unreachable' in text or farm_harness.pending(paths[r]) == 0
+                       for r, text in uploader_logs().items())
+        try:
+            farm_harness.wait_for(backing_off, 90, 'both uploaders to notice the server is down')
+        except AssertionError as e:
+            raise AssertionError('%s; pending %s; uploader logs: %s' % (
+                e, dict((r, farm_harness.pending(p)) for r, p in paths.items()),
+                dict((r, text[-800:]) for r, text in uploader_logs().items())))
         server.start()
 
         # 2. robot_a's uploader dies (SIGKILL) mid-upload and is restarted

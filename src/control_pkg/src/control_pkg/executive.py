@@ -15,8 +15,9 @@ ROOT (StateMachine)
       NEXT_TARGET                        next target of the planned order, or next point
       PICK_TARGET (StateMachine)         one tomato
         RIGHT_ARM: DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_MOVE_ENDEFFECTOR (suction on)
-                   -> DO_KINEMATICS_PULL -> DO_MOVE_ROBOT_PULL (draw the held fruit out of its
-                   cluster by `right_pull`, so the left arm's camera and shear can get at it)
+                   -> CHOOSE_PULL -> DO_KINEMATICS_PULL -> DO_MOVE_ROBOT_PULL (draw the held fruit
+                   out of its cluster, clear of the other fruit, so the left arm's camera and
+                   shear can get at it; `right_pulls`)
                    -> DO_TOMATO_SCAN_HELD (the stereo head locates the presented fruit again,
                    now clear of the leaves and fruit that hid part of it)
         LEFT_ARM:  DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_VISUALSERVOING -> DO_MOVE_ENDEFFECTOR (cut)
@@ -63,6 +64,8 @@ class MissionContext(object):
         self.halt = halt or (lambda: (True, 'no halt service configured'))
         self.last_error = ''
         self.lock = threading.Lock()
+        self.scene = []            # (id, (x, y, z), radius) of every located tomato at this point
+        self.gone = set()          # ids picked since that scan
 
     def now(self):
         return rospy.get_time()
@@ -179,6 +182,36 @@ class NextTarget(smach.State):
         return 'target'
 
 
+class ChoosePull(smach.State):
+    """Choose how to draw the held fruit out of its cluster: the first of the configured pulls
+    that keeps it (and the cut point above it) clear of the other tomatoes of the last scan.
+
+    Outcomes: pull, none (no pull is clear: the fruit is cut where it hangs)
+    Input keys: target
+    Output keys: pull
+    """
+
+    def __init__(self, context, candidates, clearance, cut_height):
+        smach.State.__init__(self, outcomes=['pull', 'none'], input_keys=['target'], output_keys=['pull'])
+        self._context = context
+        self._candidates = candidates
+        self._clearance = clearance
+        self._cut_height = cut_height
+
+    def execute(self, ud):
+        t = ud.target
+        p = t.pick_point.point
+        obstacles = [(xyz, r) for tid, xyz, r in self._context.scene
+                     if tid != t.id and tid not in self._context.gone]
+        pull = mission_lib.choose_pull((p.x, p.y, p.z), t.radius, obstacles, self._candidates,
+                                       self._clearance, self._cut_height)
+        if pull is None:
+            rospy.loginfo('executive: no clear way to draw target %d out of its cluster; cutting it in place', t.id)
+            return 'none'
+        ud.pull = pull
+        return 'pull'
+
+
 class EndFruit(smach.State):
     """Close the current fruit's record with a fixed outcome.
 
@@ -193,6 +226,8 @@ class EndFruit(smach.State):
     def execute(self, ud):
         reason = '' if self._outcome == mission_lib.OUTCOME_PICKED else self._context.last_error
         record = self._context.recorder.end_fruit(self._outcome, self._context.now(), reason)
+        if record is not None and self._outcome == mission_lib.OUTCOME_PICKED:
+            self._context.gone.add(record.target_id)
         if record is not None:
             self._context.publish_record(record)
             rospy.loginfo('executive: target %d %s after %.1f s%s', record.target_id, record.outcome,
@@ -303,8 +338,9 @@ def build_state_machine(context, estop_event, resume_event):
     retries = cfg['retries']
     peduncle_gap = float(cfg['peduncle_gap'])
     approach = float(cfg['left_approach_standoff'])
-    pull = [float(v) for v in cfg.get('right_pull', [0.0, 0.0, 0.0])]
-    do_pull = any(v != 0.0 for v in pull)
+    pulls = [tuple(float(v) for v in p) for p in cfg.get('right_pulls', [])]
+    do_pull = bool(pulls)
+    pull_clearance = float(cfg.get('pull_clearance', 0.01))
     relocate_tolerance = float(cfg.get('relocate_tolerance', 0.0))
 
     def action(label, key, spec, **kwargs):
@@ -340,6 +376,12 @@ def build_state_machine(context, estop_event, resume_event):
         if result is None or not result.success:
             return None
         pickable = sorted([t for t in result.tomatoes.tomatoes if t.pickable], key=lambda t: t.pick_order)
+        context.scene = [(t.id, (t.pick_point.point.x, t.pick_point.point.y, t.pick_point.point.z), t.radius)
+                         for t in result.tomatoes.tomatoes
+                         if t.pick_point.header.frame_id == cfg['base_frame'] and t.radius > 0.0 and
+                         all(math.isfinite(v) for v in (t.pick_point.point.x, t.pick_point.point.y,
+                                                         t.pick_point.point.z))]
+        context.gone = set()
         ud.targets = pickable
         rospy.loginfo('executive: %d pickable of %d tomatoes at picking point %d', len(pickable),
                       len(result.tomatoes.tomatoes), ud.picking_point)
@@ -362,7 +404,7 @@ def build_state_machine(context, estop_event, resume_event):
 
     def pull_goal_cb(ud, goal):
         t = ud.target
-        return KinematicsGoal(target=_point_goal(t.pick_point, *pull), arm=ARM_RIGHT,
+        return KinematicsGoal(target=_point_goal(t.pick_point, *ud.pull), arm=ARM_RIGHT,
                               standoff=float(t.radius))
 
     def pull_kin_result_cb(ud, status, result):
@@ -381,7 +423,7 @@ def build_state_machine(context, estop_event, resume_event):
         if verdict is None and status == 3:
             # the held fruit moved with the suction sleeve: the left arm aims at its new place
             moved = copy.deepcopy(ud.target)
-            moved.pick_point = _point_goal(ud.target.pick_point, *pull)
+            moved.pick_point = _point_goal(ud.target.pick_point, *ud.pull)
             ud.target = moved
         return verdict
 
@@ -461,6 +503,7 @@ def build_state_machine(context, estop_event, resume_event):
         sm = smach.StateMachine(outcomes=['succeeded', 'unreachable', 'lost', 'aborted', 'preempted'],
                                 input_keys=['target'], output_keys=['target'])
         sm.userdata.joint_goal = []
+        sm.userdata.pull = (0.0, 0.0, 0.0)
         with sm:
             smach.StateMachine.add('DO_KINEMATICS', action(
                 'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=kin_goal_cb(ARM_RIGHT),
@@ -475,16 +518,19 @@ def build_state_machine(context, estop_event, resume_event):
                 'DO_MOVE_ENDEFFECTOR', 'end_effector', EndEffectorAction,
                 goal=EndEffectorGoal(command=EndEffectorGoal.SUCTION_ON), result_cb=ee_result_cb),
                 transitions={'aborted': 'lost',
-                             'succeeded': 'DO_KINEMATICS_PULL' if do_pull else 'succeeded'})
+                             'succeeded': 'CHOOSE_PULL' if do_pull else 'succeeded'})
             if do_pull:
+                smach.StateMachine.add('CHOOSE_PULL', ChoosePull(context, pulls, pull_clearance,
+                                                                 peduncle_gap),
+                                       transitions={'pull': 'DO_KINEMATICS_PULL', 'none': 'succeeded'})
                 smach.StateMachine.add('DO_KINEMATICS_PULL', action(
                     'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=pull_goal_cb,
-                    input_keys=['target'], output_keys=['joint_goal'], result_cb=pull_kin_result_cb,
+                    input_keys=['target', 'pull'], output_keys=['joint_goal'], result_cb=pull_kin_result_cb,
                     outcomes=['unreachable']),
                     transitions={'succeeded': 'DO_MOVE_ROBOT_PULL', 'unreachable': 'succeeded'})
                 smach.StateMachine.add('DO_MOVE_ROBOT_PULL', action(
                     'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, goal_cb=move_goal_cb(ARM_RIGHT),
-                    input_keys=['joint_goal', 'target'], output_keys=['target'],
+                    input_keys=['joint_goal', 'target', 'pull'], output_keys=['target'],
                     result_cb=pull_move_result_cb),
                     transitions={'succeeded': 'DO_TOMATO_SCAN_HELD' if relocate_tolerance > 0.0
                                  else 'succeeded'})

@@ -38,7 +38,9 @@ DEFAULTS = {
     'server_wait_timeout': 10.0,
     'peduncle_gap': 0.01,
     'left_approach_standoff': 0.03,
-    'right_pull': [-0.08, 0.0, 0.0],
+    'right_pulls': [[-0.08, 0.0, 0.0], [-0.06, 0.0, -0.05], [-0.06, 0.05, 0.0], [-0.06, -0.05, 0.0],
+                    [-0.04, 0.0, 0.0]],
+    'pull_clearance': 0.01,
     'relocate_tolerance': 0.03,
     'actions': {
         'self_test': 'self_test', 'move_base': 'move_base', 'tomato_scan': 'tomato_scan',
@@ -72,10 +74,14 @@ def merged_config(overrides):
             if len(joints) != 3 or any(math.isnan(float(j)) for j in joints):
                 raise ValueError('%s/%s must be 3 finite joint values [lift, boom, forearm], got %r'
                                  % (key, arm, joints))
-    pull = cfg['right_pull']
-    if not isinstance(pull, (list, tuple)) or len(pull) != 3 or \
-            not all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in pull):
-        raise ValueError('right_pull must be 3 finite numbers [dx, dy, dz] in m, got %r' % (pull,))
+    pulls = cfg['right_pulls']
+    if not isinstance(pulls, (list, tuple)) or not all(
+            isinstance(p, (list, tuple)) and len(p) == 3 and
+            all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in p) for p in pulls):
+        raise ValueError('right_pulls must be a list of [dx, dy, dz] (finite, m), got %r' % (pulls,))
+    for key in ('pull_clearance', ):
+        if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
+            raise ValueError('%s must be a finite number >= 0 (m), got %r' % (key, cfg[key]))
     tol = cfg['relocate_tolerance']
     if not isinstance(tol, (int, float)) or not math.isfinite(float(tol)) or float(tol) < 0.0:
         raise ValueError('relocate_tolerance must be a finite number >= 0 (m), got %r' % (tol,))
