@@ -75,14 +75,17 @@ def test_pull_is_the_first_candidate_clear_of_other_fruit():
     held = ((0.5, 0.0, 0.9), 0.035)
     candidates = [(-0.08, 0.0, 0.0), (-0.06, 0.0, -0.05), (-0.04, 0.0, 0.0)]
     assert choose_pull(held[0], held[1], [], candidates) == candidates[0]
-    # a fruit hanging in front of and above the held one: the straight pull would push the
-    # held fruit's cut point into it; pulling down and out stays clear
-    front = ((0.43, 0.0, 0.97), 0.03)
+    # a fruit hanging in front of and above the held one: the straight pull would close the
+    # shear inside it; pulling down and out leaves the cut point clear
+    front = ((0.42, 0.0, 0.97), 0.03)
     assert choose_pull(held[0], held[1], [front], candidates) == candidates[1]
-    # a fruit right in front: every path goes through it
+    # a fruit where every pull ends
     blocking = ((0.44, 0.0, 0.88), 0.035)
     assert choose_pull(held[0], held[1], [blocking], candidates) is None
-    # a neighbour beside the held fruit (touching it) does not block a pull away from it
+    # a neighbour touching the held fruit does not block a pull away from it, and one passed
+    # on the way (fruit of a truss give way) does not either
     beside = ((0.5, 0.075, 0.9), 0.035)
     assert choose_pull(held[0], held[1], [beside], candidates) == candidates[0]
+    passed = ((0.46, 0.065, 0.9), 0.03)
+    assert choose_pull(held[0], held[1], [passed], candidates) == candidates[0]
     assert choose_pull(held[0], held[1], [front], []) is None

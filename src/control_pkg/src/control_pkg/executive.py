@@ -191,12 +191,13 @@ class ChoosePull(smach.State):
     Output keys: pull
     """
 
-    def __init__(self, context, candidates, clearance, cut_height):
+    def __init__(self, context, candidates, clearance, cut_height, cut_clearance):
         smach.State.__init__(self, outcomes=['pull', 'none'], input_keys=['target'], output_keys=['pull'])
         self._context = context
         self._candidates = candidates
         self._clearance = clearance
         self._cut_height = cut_height
+        self._cut_clearance = cut_clearance
 
     def execute(self, ud):
         t = ud.target
@@ -204,10 +205,15 @@ class ChoosePull(smach.State):
         obstacles = [(xyz, r) for tid, xyz, r in self._context.scene
                      if tid != t.id and tid not in self._context.gone]
         pull = mission_lib.choose_pull((p.x, p.y, p.z), t.radius, obstacles, self._candidates,
-                                       self._clearance, self._cut_height)
+                                       self._clearance, self._cut_height, self._cut_clearance)
+        near = ', '.join('(%.3f, %.3f, %.3f) r %.3f' % (xyz[0], xyz[1], xyz[2], r) for xyz, r in obstacles
+                         if math.sqrt((xyz[0] - p.x) ** 2 + (xyz[1] - p.y) ** 2 + (xyz[2] - p.z) ** 2) < 0.15)
         if pull is None:
-            rospy.loginfo('executive: no clear way to draw target %d out of its cluster; cutting it in place', t.id)
+            rospy.loginfo('executive: no clear way to draw target %d out of its cluster (fruit near it: %s); '
+                          'cutting it in place', t.id, near or 'none')
             return 'none'
+        rospy.loginfo('executive: drawing target %d out by (%.3f, %.3f, %.3f) m (fruit near it: %s)',
+                      t.id, pull[0], pull[1], pull[2], near or 'none')
         ud.pull = pull
         return 'pull'
 
@@ -340,7 +346,8 @@ def build_state_machine(context, estop_event, resume_event):
     approach = float(cfg['left_approach_standoff'])
     pulls = [tuple(float(v) for v in p) for p in cfg.get('right_pulls', [])]
     do_pull = bool(pulls)
-    pull_clearance = float(cfg.get('pull_clearance', 0.01))
+    pull_clearance = float(cfg.get('pull_clearance', 0.0))
+    cut_clearance = float(cfg.get('cut_clearance', 0.01))
     relocate_tolerance = float(cfg.get('relocate_tolerance', 0.0))
 
     def action(label, key, spec, **kwargs):
@@ -448,6 +455,12 @@ def build_state_machine(context, estop_event, resume_event):
             rospy.loginfo('executive: held fruit not found again within %.0f mm; keeping its first estimate',
                           relocate_tolerance * 1e3)
             return None
+        if best.radius < t.radius:
+            # occlusion only shrinks a fitted circle: the first view saw more of this fruit
+            rospy.loginfo('executive: held fruit seen again %.1f mm from where it was expected but smaller '
+                          '(radius %.1f mm, first scan %.1f mm); keeping its first estimate',
+                          best_d * 1e3, best.radius * 1e3, t.radius * 1e3)
+            return None
         moved = copy.deepcopy(t)
         moved.pick_point = best.pick_point
         moved.radius = best.radius
@@ -521,7 +534,7 @@ def build_state_machine(context, estop_event, resume_event):
                              'succeeded': 'CHOOSE_PULL' if do_pull else 'succeeded'})
             if do_pull:
                 smach.StateMachine.add('CHOOSE_PULL', ChoosePull(context, pulls, pull_clearance,
-                                                                 peduncle_gap),
+                                                                 peduncle_gap, cut_clearance),
                                        transitions={'pull': 'DO_KINEMATICS_PULL', 'none': 'succeeded'})
                 smach.StateMachine.add('DO_KINEMATICS_PULL', action(
                     'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=pull_goal_cb,

@@ -38,9 +38,10 @@ DEFAULTS = {
     'server_wait_timeout': 10.0,
     'peduncle_gap': 0.01,
     'left_approach_standoff': 0.03,
-    'right_pulls': [[-0.08, 0.0, 0.0], [-0.06, 0.0, -0.05], [-0.06, 0.05, 0.0], [-0.06, -0.05, 0.0],
-                    [-0.04, 0.0, 0.0]],
-    'pull_clearance': 0.01,
+    'right_pulls': [[-0.08, 0.0, 0.0], [-0.05, 0.0, 0.0], [-0.06, 0.0, -0.05], [-0.06, 0.05, 0.0],
+                    [-0.06, -0.05, 0.0]],
+    'pull_clearance': 0.0,
+    'cut_clearance': 0.01,
     'relocate_tolerance': 0.03,
     'actions': {
         'self_test': 'self_test', 'move_base': 'move_base', 'tomato_scan': 'tomato_scan',
@@ -79,7 +80,7 @@ def merged_config(overrides):
             isinstance(p, (list, tuple)) and len(p) == 3 and
             all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in p) for p in pulls):
         raise ValueError('right_pulls must be a list of [dx, dy, dz] (finite, m), got %r' % (pulls,))
-    for key in ('pull_clearance', ):
+    for key in ('pull_clearance', 'cut_clearance'):
         if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
             raise ValueError('%s must be a finite number >= 0 (m), got %r' % (key, cfg[key]))
     tol = cfg['relocate_tolerance']

@@ -177,39 +177,29 @@ def summary_line(picked, ripe_reachable, damaged, skipped, mean_cycle, wall):
             'mean cycle %s s/fruit (sim), wall %.0f s' % (picked, ripe_reachable, damaged, skipped, cycle, wall))
 
 
-def choose_pull(centre, radius, obstacles, candidates, clearance=0.01, cut_height=0.01, steps=8):
-    """The first pull in ``candidates`` that moves a held fruit clear of every other fruit.
+def choose_pull(centre, radius, obstacles, candidates, clearance=0.0, cut_height=0.01, cut_clearance=0.01):
+    """The first pull in ``candidates`` that leaves a held fruit clear of every other fruit.
 
     centre, radius: the held fruit (base frame, m). obstacles: (centre, radius) of the other
     fruit seen at this picking point and still there. candidates: displacement vectors in order
-    of preference. A pull is clear when, at every step along it, the fruit's sphere stays
-    ``clearance`` away from each obstacle's sphere (one already closer must not come closer),
-    and at its end the cut point (``cut_height``
-    above the fruit's top, where the shear closes) is ``clearance`` outside every obstacle.
+    of preference. A pull is clear when, where it ends, the fruit's sphere is ``clearance`` away
+    from each obstacle's sphere (one that already touches it must not come closer) and the cut
+    point (``cut_height`` above the fruit's top, where the shear closes) is ``cut_clearance``
+    outside every obstacle. The way there is not checked: fruit of a truss give way to each
+    other; what must not happen is the shear closing in another fruit.
     Returns the vector (tuple) or None when none is clear (then the fruit is cut where it hangs).
     """
     cx, cy, cz = (float(v) for v in centre)
     r = float(radius)
     obs = [((float(o[0][0]), float(o[0][1]), float(o[0][2])), float(o[1])) for o in obstacles]
+
+    def dist(a, b):
+        return math.sqrt((a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2)
     for cand in candidates:
         dx, dy, dz = (float(v) for v in cand)
-        clear = True
-        for (ox, oy, oz), orad in obs:
-            # a neighbour already touching the fruit only must not get any closer
-            start = math.sqrt((cx - ox) ** 2 + (cy - oy) ** 2 + (cz - oz) ** 2)
-            limit = min(r + orad + clearance, start - 1e-6)
-            for k in range(1, steps + 1):
-                f = k / float(steps)
-                px, py, pz = cx + f * dx, cy + f * dy, cz + f * dz
-                if math.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - oz) ** 2) < limit:
-                    clear = False
-                    break
-            if not clear:
-                break
-        if clear:
-            tx, ty, tz = cx + dx, cy + dy, cz + dz + r + cut_height
-            clear = all(math.sqrt((tx - ox) ** 2 + (ty - oy) ** 2 + (tz - oz) ** 2) >= orad + clearance
-                        for (ox, oy, oz), orad in obs)
-        if clear:
+        end = (cx + dx, cy + dy, cz + dz)
+        cut = (end[0], end[1], end[2] + r + cut_height)
+        if all(dist(end, o) >= min(r + orad + clearance, dist((cx, cy, cz), o)) and
+               dist(cut, o) >= orad + cut_clearance for o, orad in obs):
             return (dx, dy, dz)
     return None
