@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """A mission after a day of observations visits only the picking points of the farm server's plan.
 
-The test owns a real farm server process (network_pkg, embedded SQLite in a temp dir, on the
-loopback port ~farm_port, this robot's token from ~token_file). It uploads "yesterday's" scan of
+The test owns a real farm server process (network_pkg's test harness, embedded SQLite in a temp
+dir, on the loopback port ~farm_port, this robot's token from ~token_file). It uploads "yesterday's" scan of
 the row through network_pkg's own outbox and client: the scenario's fruit at their true map
 positions, ripe (score 0.8) at the points of ~planned and still green (0.3) everywhere else. The
 server's plan for today must then be ~planned; the robot's uploader latches it on
@@ -15,13 +15,12 @@ server's plan for today must then be ~planned; the robot's uploader latches it o
 """
 import os
 import shutil
-import subprocess
 import sys
 import tempfile
 import time
 import unittest
 
-import requests
+import rospkg
 import rospy
 import rostest
 import yaml
@@ -34,6 +33,10 @@ from database_pkg.store import Store
 from network_pkg.outbox import FarmClient, Outbox, Uploader
 
 from mission_test import Watch
+
+# network_pkg's test harness runs the real farm server process (not installed: a test helper)
+sys.path.insert(0, os.path.join(rospkg.RosPack().get_path('network_pkg'), 'test'))
+import farm_harness  # noqa: E402
 
 DAY = 86400.0
 ROBOT = 'sim_robot'
@@ -64,57 +67,6 @@ class PlanWatch(Watch):
                 self.cond.notify_all()
 
 
-class FarmServerProcess(object):
-    """``python -m network_pkg.farm_server serve`` with a fresh SQLite database."""
-
-    def __init__(self, port, token):
-        self.dir = tempfile.mkdtemp(prefix='mission_plan_farm_')
-        self.url = 'http://127.0.0.1:%d' % port
-        self.port = port
-        config = os.path.join(self.dir, 'farm.yaml')
-        with open(config, 'w') as f:
-            yaml.safe_dump({'robots': {ROBOT: token}}, f)
-        self.log_path = os.path.join(self.dir, 'farm_server.log')
-        self.cmd = [sys.executable, '-m', 'network_pkg.farm_server',
-                    '--db', 'sqlite:///' + os.path.join(self.dir, 'farm.db'),
-                    'serve', '--port', str(port), '--config', config, '--log-level', 'warning']
-        self.proc = None
-
-    def start(self, timeout=120.0):
-        with open(self.log_path, 'ab') as log:
-            self.proc = subprocess.Popen(self.cmd, stdout=log, stderr=subprocess.STDOUT)
-        deadline = time.monotonic() + timeout
-        while True:
-            if self.proc.poll() is not None:
-                raise AssertionError('farm server exited with %s:\n%s' % (self.proc.returncode, self.log()))
-            try:
-                if requests.get(self.url + '/api/v1/health', timeout=1.0).ok:
-                    return
-            except requests.RequestException:
-                pass
-            if time.monotonic() > deadline:
-                raise AssertionError('farm server not up after %.0f s:\n%s' % (timeout, self.log()))
-            # wall clock on purpose: a process start-up, not simulated time
-            rospy.rostime.wallsleep(0.2)
-
-    def log(self):
-        try:
-            with open(self.log_path) as f:
-                return f.read()[-3000:]
-        except OSError:
-            return ''
-
-    def stop(self):
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(15)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(15)
-        shutil.rmtree(self.dir, ignore_errors=True)
-
-
 def yesterdays_scan(fruits, track, planned, path, now):
     """Fill a store with one scan per picking point, a day ago, as this robot's earlier mission."""
     t0 = now - DAY
@@ -143,14 +95,18 @@ class MissionPlanTest(unittest.TestCase):
         planned = [int(p) for p in rospy.get_param('~planned')]
         with open(rospy.get_param('~token_file')) as f:
             token = f.read().strip()
-        server = FarmServerProcess(int(rospy.get_param('~farm_port')), token)
+        work = tempfile.mkdtemp(prefix='mission_plan_farm_')
+        self.addCleanup(shutil.rmtree, work, True)
+        server = farm_harness.FarmServer('sqlite:///' + os.path.join(work, 'farm.db'), work,
+                                         config_text=yaml.safe_dump({'robots': {ROBOT: token}}),
+                                         port=int(rospy.get_param('~farm_port')))
         self.addCleanup(server.stop)
-        server.start()
+        server.start(timeout=120.0)
 
         # yesterday: the robot scanned the row (uploaded through network_pkg's outbox and client)
         fruits = rospy.wait_for_message('/sim/fruits', SimFruitArray, timeout=120.0).fruits
         track = rospy.get_param('/track/picking_points')
-        store_path = os.path.join(server.dir, 'yesterday.db')
+        store_path = os.path.join(work, 'yesterday.db')
         yesterdays_scan(fruits, track, planned, store_path, time.time())
         client = FarmClient(server.url, token, timeout=10.0)
         outbox = Outbox(store_path)
