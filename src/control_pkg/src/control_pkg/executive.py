@@ -207,7 +207,7 @@ class ChoosePull(smach.State):
         pull = mission_lib.choose_pull((p.x, p.y, p.z), t.radius, obstacles, self._candidates,
                                        self._clearance, self._cut_height, self._cut_clearance)
         near = ', '.join('(%.3f, %.3f, %.3f) r %.3f' % (xyz[0], xyz[1], xyz[2], r) for xyz, r in obstacles
-                         if math.sqrt((xyz[0] - p.x) ** 2 + (xyz[1] - p.y) ** 2 + (xyz[2] - p.z) ** 2) < 0.15)
+                         if mission_lib.distance(xyz, (p.x, p.y, p.z)) < 0.15)
         if pull is None:
             rospy.loginfo('executive: no clear way to draw target %d out of its cluster (fruit near it: %s); '
                           'cutting it in place', t.id, near or 'none')
@@ -323,6 +323,15 @@ class DoStop(smach.State):
         return 'shutdown'
 
 
+def _located(tomato, frame):
+    """(x, y, z) of a tomato located in `frame` with a finite point and a radius, else None."""
+    p = tomato.pick_point.point
+    if tomato.pick_point.header.frame_id != frame or not tomato.radius > 0.0 or \
+            not all(math.isfinite(v) for v in (p.x, p.y, p.z)):
+        return None
+    return (p.x, p.y, p.z)
+
+
 def _point_goal(point_stamped, dx=0.0, dy=0.0, dz=0.0):
     out = PointStamped()
     out.header = point_stamped.header
@@ -383,11 +392,8 @@ def build_state_machine(context, estop_event, resume_event):
         if result is None or not result.success:
             return None
         pickable = sorted([t for t in result.tomatoes.tomatoes if t.pickable], key=lambda t: t.pick_order)
-        context.scene = [(t.id, (t.pick_point.point.x, t.pick_point.point.y, t.pick_point.point.z), t.radius)
-                         for t in result.tomatoes.tomatoes
-                         if t.pick_point.header.frame_id == cfg['base_frame'] and t.radius > 0.0 and
-                         all(math.isfinite(v) for v in (t.pick_point.point.x, t.pick_point.point.y,
-                                                         t.pick_point.point.z))]
+        context.scene = [(t.id, _located(t, cfg['base_frame']), t.radius) for t in result.tomatoes.tomatoes
+                         if _located(t, cfg['base_frame']) is not None]
         context.gone = set()
         ud.targets = pickable
         rospy.loginfo('executive: %d pickable of %d tomatoes at picking point %d', len(pickable),
@@ -442,13 +448,14 @@ def build_state_machine(context, estop_event, resume_event):
             return None            # keep the estimate from the first scan
         t = ud.target
         best, best_d = None, relocate_tolerance
+        expected = _located(t, t.pick_point.header.frame_id)
+        if expected is None:
+            return None            # nothing to compare with: keep the first estimate
         for cand in result.tomatoes.tomatoes:
-            p = cand.pick_point.point
-            if cand.pick_point.header.frame_id != t.pick_point.header.frame_id or \
-                    not all(math.isfinite(v) for v in (p.x, p.y, p.z)) or not cand.radius > 0.0:
+            xyz = _located(cand, t.pick_point.header.frame_id)
+            if xyz is None:
                 continue
-            d = math.sqrt((p.x - t.pick_point.point.x) ** 2 + (p.y - t.pick_point.point.y) ** 2 +
-                          (p.z - t.pick_point.point.z) ** 2)
+            d = mission_lib.distance(xyz, expected)
             if d <= best_d:
                 best, best_d = cand, d
         if best is None:

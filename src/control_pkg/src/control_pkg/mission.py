@@ -177,6 +177,11 @@ def summary_line(picked, ripe_reachable, damaged, skipped, mean_cycle, wall):
             'mean cycle %s s/fruit (sim), wall %.0f s' % (picked, ripe_reachable, damaged, skipped, cycle, wall))
 
 
+def distance(a, b):
+    """Euclidean distance of two 3D points given as sequences."""
+    return math.sqrt((a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2)
+
+
 def choose_pull(centre, radius, obstacles, candidates, clearance=0.0, cut_height=0.01, cut_clearance=0.01):
     """The first pull in ``candidates`` that leaves a held fruit clear of every other fruit.
 
@@ -192,9 +197,7 @@ def choose_pull(centre, radius, obstacles, candidates, clearance=0.0, cut_height
     cx, cy, cz = (float(v) for v in centre)
     r = float(radius)
     obs = [((float(o[0][0]), float(o[0][1]), float(o[0][2])), float(o[1])) for o in obstacles]
-
-    def dist(a, b):
-        return math.sqrt((a[0] - b[0]) ** 2 + (a[1] - b[1]) ** 2 + (a[2] - b[2]) ** 2)
+    dist = distance
     for cand in candidates:
         dx, dy, dz = (float(v) for v in cand)
         end = (cx + dx, cy + dy, cz + dz)
