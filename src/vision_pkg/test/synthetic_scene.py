@@ -11,20 +11,25 @@ FOCAL = (WIDTH / 2.0) / np.tan(np.radians(66.0) / 2.0)
 CX, CY = (WIDTH - 1) / 2.0, (HEIGHT - 1) / 2.0
 BASELINE = 0.12
 
-# ripeness colour ramp (0 green .. 1 red): RGB albedo anchors, the same facts harvest_sim's
-# renderer documents, so the calibrated ripeness score applies to these images too
-_RAMP_RGB = [(0.0, (0.30, 0.55, 0.16)), (0.2, (0.45, 0.62, 0.18)), (0.35, (0.75, 0.62, 0.22)),
-             (0.55, (0.93, 0.45, 0.36)), (0.7, (0.85, 0.19, 0.11)), (1.0, (0.70, 0.06, 0.04))]
-_RAMP = [(r, (255 * c[2], 255 * c[1], 255 * c[0])) for r, c in _RAMP_RGB]
+# ripeness colour ramp (0 green .. 1 red) of real fruit skin under neutral light: OpenCV hue
+# (0..180) by ripeness, as the detector's documented calibration reads it (vision_pkg README),
+# saturation and value of real skin; green fruit are light yellowish green, red ones deep red
+_RAMP_RIPENESS = [0.0, 0.06, 0.18, 0.32, 0.45, 0.6, 0.75, 0.9, 1.0]
+_RAMP_HUE = [42.0, 36.0, 31.0, 27.0, 23.0, 19.0, 15.0, 10.0, 3.0]
+_RAMP_SAT = [150.0, 150.0, 160.0, 170.0, 180.0, 190.0, 200.0, 205.0, 210.0]
+_RAMP_VAL = [200.0, 200.0, 205.0, 210.0, 215.0, 215.0, 210.0, 200.0, 190.0]
+#: BGR of leaves: the same yellow-green as green fruit (only shape and surface tell them apart)
+LEAF_BGR = (60.0, 150.0, 125.0)
 
 
 def ripeness_colour(r):
     """BGR base colour of a tomato of ripeness r in [0, 1]."""
-    for (r0, c0), (r1, c1) in zip(_RAMP[:-1], _RAMP[1:]):
-        if r <= r1:
-            w = (r - r0) / (r1 - r0)
-            return np.array(c0) * (1.0 - w) + np.array(c1) * w
-    return np.array(_RAMP[-1][1], dtype=float)
+    import cv2
+    r = min(max(float(r), 0.0), 1.0)
+    hsv = np.uint8([[[round(np.interp(r, _RAMP_RIPENESS, _RAMP_HUE)),
+                      round(np.interp(r, _RAMP_RIPENESS, _RAMP_SAT)),
+                      round(np.interp(r, _RAMP_RIPENESS, _RAMP_VAL))]]])
+    return cv2.cvtColor(hsv, cv2.COLOR_HSV2BGR).reshape(3).astype(float)
 
 
 class Fruit(object):
@@ -35,11 +40,13 @@ class Fruit(object):
 
 
 class Leaf(object):
-    """A flat elliptical leaf facing the camera at depth z."""
+    """A flat elliptical leaf facing the camera at depth z; `fruit_green` leaves have the
+    colour of green fruit, a serrated edge and veins."""
 
-    def __init__(self, x, y, z, ax, ay, angle=0.0):
+    def __init__(self, x, y, z, ax, ay, angle=0.0, fruit_green=False):
         self.centre = np.array([x, y, z], dtype=float)
         self.ax, self.ay, self.angle = ax, ay, angle
+        self.fruit_green = fruit_green
 
 
 def project(point, eye='right'):
@@ -86,8 +93,11 @@ def _texture(shape, rng, scale):
 
 
 def render(fruits, leaves=(), eye='right', seed=0, width=WIDTH, height=HEIGHT, focal=None,
-           backdrop_depth=1.2, light=1.0):
-    """Render one eye. Returns (bgr uint8 image, depth float32 [m], fruit id map int16)."""
+           backdrop_depth=1.2, light=1.0, film_above=None, gains=(1.0, 1.0, 1.0)):
+    """Render one eye. Returns (bgr uint8 image, depth float32 [m], fruit id map int16).
+
+    film_above: backdrop rows above this world y [m] show white plastic film instead of
+    canopy; gains: BGR channel gains of the illuminant/camera white balance."""
     import cv2
     f = FOCAL * width / WIDTH if focal is None else focal
     cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
@@ -109,6 +119,9 @@ def render(fruits, leaves=(), eye='right', seed=0, width=WIDTH, height=HEIGHT, f
     img[..., 0] = 40 + 12 * t
     img[..., 1] = 95 + 30 * t
     img[..., 2] = 45 + 12 * t
+    if film_above is not None:
+        film = wy < film_above
+        img[film] = (170.0 + 6.0 * t[film])[:, None]      # translucent film, in shade
     ids = np.full((height, width), -1, np.int16)
     light_dir = np.array([0.3, 0.45, 0.85])
     light_dir /= np.linalg.norm(light_dir)
@@ -156,13 +169,25 @@ def render(fruits, leaves=(), eye='right', seed=0, width=WIDTH, height=HEIGHT, f
         ca, sa = np.cos(leaf.angle), np.sin(leaf.angle)
         ex = (ca * lx + sa * ly) / leaf.ax
         ey = (-sa * lx + ca * ly) / leaf.ay
-        hit = (ex * ex + ey * ey <= 1.0) & (c[2] < depth)
+        rho = np.sqrt(ex * ex + ey * ey)
+        if leaf.fruit_green:
+            ang = np.arctan2(ey, ex)
+            rho = rho * (1.0 + 0.08 * np.abs(np.sin(9.0 * ang)))      # serrated edge
+        hit = (rho <= 1.0) & (c[2] < depth)
         shade = 0.8 + 0.2 * ex
-        img[hit, 0] = 30 * shade[hit]
-        img[hit, 1] = 120 * shade[hit]
-        img[hit, 2] = 40 * shade[hit]
+        if leaf.fruit_green:
+            # midrib and side veins, darker, as on a real leaflet
+            vein = (np.abs(ey) < 0.05) | (np.abs(np.sin(6.0 * (ex - 0.6 * np.abs(ey)))) < 0.12)
+            shade = shade * np.where(vein, 0.55, 1.0)
+            for ch in range(3):
+                img[hit, ch] = LEAF_BGR[ch] * shade[hit]
+        else:
+            img[hit, 0] = 30 * shade[hit]
+            img[hit, 1] = 120 * shade[hit]
+            img[hit, 2] = 40 * shade[hit]
         depth[hit] = c[2]
         ids[hit] = -1
+    img *= np.asarray(gains, dtype=np.float32)[None, None, :]
     img += rng.standard_normal(img.shape).astype(np.float32) * 2.0
     return np.clip(img, 0, 255).astype(np.uint8), depth, ids
 

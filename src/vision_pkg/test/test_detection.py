@@ -1,6 +1,7 @@
 """Tomato detection and ripeness grading on synthetic ray-cast images."""
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -128,5 +129,104 @@ def test_unknown_parameter_rejected():
     with pytest.raises(ValueError):
         TomatoDetector(no_such_param=1)
     with pytest.raises(ValueError):
-        TomatoDetector().update(score_chroma=[0.1, 0.2])
+        TomatoDetector().update(score_hue=[0.1, 0.2])
     assert set(detection.DEFAULTS) >= {'min_radius_px', 'scale'}
+
+
+# -- real-photo robustness ------------------------------------------------------------------
+#: BGR channel gains of three illuminant/camera white balances: neutral daylight, warm lamps
+#: (orange cast) and a red/blue plant-factory LED (pink-magenta cast, green weak)
+WHITE_BALANCES = {'daylight': (1.0, 1.0, 1.0), 'warm': (0.72, 0.95, 1.2),
+                  'led': (1.3, 0.75, 1.35)}
+
+
+def test_same_fruit_under_three_white_balances_grades_the_same_stage():
+    # one fruit per stage in front of canopy, with white plastic film above them (the scene's
+    # white reference)
+    fruits = [scene.Fruit(-0.15, 0.05, 0.55, 0.035, 0.05), scene.Fruit(-0.05, 0.05, 0.55, 0.035, 0.4),
+              scene.Fruit(0.05, 0.05, 0.55, 0.035, 0.6), scene.Fruit(0.15, 0.05, 0.55, 0.035, 0.95)]
+    stages = {}
+    for name, gains in WHITE_BALANCES.items():
+        image, _, _ = scene.render(fruits, backdrop_depth=0.95, film_above=-0.1, gains=gains)
+        dets = TomatoDetector().detect(image)
+        for k, fruit in enumerate(fruits):
+            det = max(dets, key=lambda d: _match(d, fruit))
+            assert _match(det, fruit) >= 0.5, (name, fruit.ripeness, dets)
+            stages.setdefault(k, {})[name] = det.stage
+    for k, fruit in enumerate(fruits):
+        assert set(stages[k].values()) == {stage_of(fruit.ripeness)}, (fruit.ripeness, stages[k])
+
+
+def test_white_gains_undo_a_cast_and_ignore_a_scene_without_white():
+    image, _, _ = scene.render([scene.Fruit(0.0, 0.05, 0.55, 0.035, 0.95)], backdrop_depth=0.95,
+                               film_above=-0.1, gains=WHITE_BALANCES['led'])
+    gains = TomatoDetector().white_gains(image)
+    cast = np.array(WHITE_BALANCES['led'])
+    corrected = gains * cast
+    assert np.ptp(corrected / corrected.mean()) < 0.08, gains
+    # red fruit on green canopy only: nothing near neutral, so no correction at all
+    image, _, _ = scene.render([scene.Fruit(0.0, 0.05, 0.55, 0.035, 0.95)], backdrop_depth=0.95)
+    assert TomatoDetector().white_gains(image) == pytest.approx(np.ones(3))
+
+
+def test_green_fruit_beside_leaves_of_their_colour_are_found_and_the_leaves_are_not():
+    fruits = [scene.Fruit(-0.12, 0.0, 0.55, 0.035, 0.05), scene.Fruit(0.1, 0.06, 0.55, 0.03, 0.1)]
+    leaves = [scene.Leaf(-0.035, 0.0, 0.56, 0.05, 0.022, 0.4, fruit_green=True),     # touching
+              scene.Leaf(0.2, -0.05, 0.6, 0.045, 0.02, -0.3, fruit_green=True),
+              scene.Leaf(0.02, -0.15, 0.6, 0.055, 0.025, 0.1, fruit_green=True),
+              scene.Leaf(-0.2, 0.15, 0.6, 0.04, 0.035, 0.8, fruit_green=True)]      # broad
+    image, _, _ = scene.render(fruits, leaves, backdrop_depth=0.95)
+    dets = TomatoDetector().detect(image)
+    for fruit in fruits:
+        matches = [d for d in dets if _match(d, fruit) >= 0.5]
+        assert len(matches) == 1, (fruit.centre, dets)
+        assert matches[0].stage == detection.STAGE_GREEN, matches
+    assert len(dets) == len(fruits), dets          # no leaf taken for a fruit
+
+
+def test_work_per_frame_is_bounded_however_cluttered():
+    """A complexity test: the per-region work (the costly part) is capped by max_regions and
+    max_peaks, not by the clutter; the fruit are still found."""
+    rng = np.random.RandomState(3)
+    fruits = [scene.Fruit(-0.1, 0.0, 0.55, 0.035, 0.95), scene.Fruit(0.1, 0.05, 0.55, 0.035, 0.9)]
+    base, _, _ = scene.render(fruits, backdrop_depth=0.95)
+    counts = {}
+    for blobs in (0, 150, 1500):
+        image = base.copy()
+        for _ in range(blobs):               # red and yellow-green specks, twine and stems
+            x, y = rng.randint(0, image.shape[1]), rng.randint(0, image.shape[0])
+            colour = (30, 40, 200) if rng.rand() < 0.5 else (60, 170, 150)
+            if rng.rand() < 0.5:
+                cv2.circle(image, (x, y), int(rng.randint(2, 9)), colour, -1)
+            else:
+                cv2.line(image, (x, y), (x + rng.randint(-60, 60), y + rng.randint(-60, 60)),
+                         colour, int(rng.randint(1, 4)))
+        detector = TomatoDetector()
+        calls = {'regions': 0, 'peaks': 0}
+        split, peaks = detector._split_component, detector._peaks
+
+        def counted_split(*a, **k):
+            calls['regions'] += 1
+            return split(*a, **k)
+
+        def counted_peaks(*a, **k):
+            found = peaks(*a, **k)
+            calls['peaks'] = max(calls['peaks'], len(found))
+            return found
+        detector._split_component, detector._peaks = counted_split, counted_peaks
+        dets = detector.detect(image)
+        counts[blobs] = calls
+        for fruit in fruits:
+            assert any(_match(d, fruit) >= 0.5 for d in dets), (blobs, dets)
+        assert calls['regions'] <= 2 * detector.params['max_regions'], (blobs, calls)
+        assert calls['peaks'] <= detector.params['max_peaks'], (blobs, calls)
+    assert counts[1500]['regions'] <= 2 * TomatoDetector().params['max_regions']
+
+
+def test_detect_rejects_what_is_not_a_colour_image():
+    with pytest.raises(ValueError):
+        TomatoDetector().detect(np.zeros((10, 10), np.uint8))
+    with pytest.raises(ValueError):
+        TomatoDetector().detect(np.zeros((10, 10, 3), np.float32))
+    with pytest.raises(ValueError):
+        TomatoDetector(scale=float('nan'))

@@ -1,4 +1,5 @@
-"""Benchmark of the tomato detector, grader and 3D localisation on harvest_sim frames (no ROS).
+"""Benchmark of the tomato detector, grader and 3D localisation (no ROS): on harvest_sim renders
+and on a folder of labelled real photographs.
 
 Frames: stereo pairs rendered by harvest_sim's renderer at every picking point of generated
 scenarios that sweep the generator's difficulty knobs (fruit per view 0-8, cluster density,
@@ -23,8 +24,18 @@ Figures:
   * detection CPU time (time.process_time, so other load on the machine does not count) per
     1024x768 frame on one core (cv2.setNumThreads(1)), and wall time of localisation and of
     the offline StereoBM.
+
+Real photographs (--photos DIR, labels --labels YAML, default: the development photos in
+../shared/data/real-tomato-photos beside the workspace and their hand labels in
+vision_pkg/data/real_tomato_photos.yaml): every photo is scaled to 1024 pixels wide, as a
+camera frame would be; a labelled fruit (circle u, v, r and a stage) is "care" when its
+visible fraction is >= --min-visible and its radius at 1024 wide >= the detector's
+min_radius_px, otherwise "don't care" as above. Ripe = stage red. The same figures as on
+renders (no 3D), plus detection precision and recall per stage (a detection graded s that
+matches a care fruit of stage s is a true positive of s) and over all stages (any fruit).
 """
 import argparse
+import glob
 import json
 import math
 import os
@@ -35,7 +46,7 @@ import numpy as np
 import yaml
 
 from vision_pkg import localisation
-from vision_pkg.detection import STAGE_NAMES, TomatoDetector, stage_of
+from vision_pkg.detection import STAGE_NAMES, STAGE_RED, TomatoDetector, stage_of
 
 RIPE = 0.7
 IOU_MIN = 0.5
@@ -197,133 +208,321 @@ def match(det_boxes, gt_boxes):
     return out
 
 
+def _pct(values, q):
+    return float(np.percentile(values, q)) if len(values) else float('nan')
+
+
+class Evaluation(object):
+    """Detection and grading figures accumulated over frames (renders or labelled photos).
+
+    Per frame: the detections, the ground-truth fruit (box, stage, care) and the detection's
+    CPU time. See the module docstring for the definitions."""
+
+    def __init__(self, min_ripeness=RIPE):
+        self.min_ripeness = min_ripeness
+        self.tp = self.fp = self.fn = self.ignored = 0
+        self.confusion = np.zeros((4, 4), dtype=int)
+        self.stage_tp = np.zeros(4, dtype=int)      # graded s, matched to a care fruit of s
+        self.stage_det = np.zeros(4, dtype=int)     # graded s, not on a don't-care fruit
+        self.stage_gt = np.zeros(4, dtype=int)      # care fruit of stage s
+        self.any_tp = self.any_det = self.any_gt = 0
+        self.det_ms = []
+        self.frames = 0
+        self.fp_log, self.fn_log = [], []
+
+    def add(self, name, dets, det_boxes, gts, ms):
+        """gts: list of dict(box, stage, care, id); returns {det index: gt index} of matches."""
+        self.frames += 1
+        self.det_ms.append(ms)
+        gt_boxes = [g['box'] for g in gts]
+        pairs = dict(match(det_boxes, gt_boxes))
+        for g in gts:
+            if g['care']:
+                self.stage_gt[g['stage']] += 1
+                self.any_gt += 1
+        for i, d in enumerate(dets):
+            j = pairs.get(i)
+            if j is not None and not gts[j]['care']:
+                continue
+            on_dont_care = j is None and any(
+                not g['care'] and g['box'][0] <= d.u <= g['box'][2] and
+                g['box'][1] <= d.v <= g['box'][3] for g in gts)
+            if j is not None:
+                true_stage = gts[j]['stage']
+                self.confusion[true_stage, d.stage] += 1
+                self.stage_tp[d.stage] += int(true_stage == d.stage)
+                self.any_tp += 1
+            if not on_dont_care:
+                self.stage_det[d.stage] += 1
+                self.any_det += 1
+            if d.score < self.min_ripeness:
+                continue
+            if on_dont_care:
+                self.ignored += 1        # on a mostly hidden or tiny fruit: neither TP nor FP
+            elif j is not None and gts[j]['stage'] == STAGE_RED:
+                self.tp += 1
+            else:
+                self.fp += 1
+                self.fp_log.append('%s det %r matched %s' % (
+                    name, d, 'nothing' if j is None else
+                    '%s (%s)' % (gts[j]['id'], STAGE_NAMES[gts[j]['stage']])))
+        for j, g in enumerate(gts):
+            if g['care'] and g['stage'] == STAGE_RED:
+                i = next((i for i, jj in pairs.items() if jj == j), None)
+                if i is None or dets[i].score < self.min_ripeness:
+                    self.fn += 1
+                    self.fn_log.append('%s gt %s %s' % (
+                        name, g['id'], 'undetected' if i is None else
+                        'graded %.3f' % dets[i].score))
+        return pairs
+
+    def figures(self):
+        precision = self.tp / float(self.tp + self.fp) if self.tp + self.fp else 1.0
+        recall = self.tp / float(self.tp + self.fn) if self.tp + self.fn else 1.0
+        f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
+        matched = int(self.confusion.sum())
+        return dict(precision=precision, recall=recall, f1=f1, tp=self.tp, fp=self.fp,
+                    fn=self.fn, stage_accuracy=float(np.trace(self.confusion)) / matched
+                    if matched else float('nan'),
+                    det_ms_median=_pct(self.det_ms, 50), det_ms_p95=_pct(self.det_ms, 95),
+                    frames=self.frames)
+
+    def report(self, log, verbose=False, min_visible=0.5):
+        f = self.figures()
+        log('ripe-fruit detection (score >= %.2f, IoU >= %.1f, visible >= %.2f): TP %d FP %d '
+            'FN %d (%d ripe detections on don\'t-care fruit ignored)'
+            % (self.min_ripeness, IOU_MIN, min_visible, self.tp, self.fp, self.fn,
+               self.ignored))
+        log('  precision %.3f  recall %.3f  F1 %.3f' % (f['precision'], f['recall'], f['f1']))
+        matched = int(self.confusion.sum())
+        log('stage accuracy: %.3f (%d/%d matched fruit)' % (
+            f['stage_accuracy'], int(np.trace(self.confusion)), matched))
+        log('  confusion (rows truth, cols detected: %s):' % ', '.join(STAGE_NAMES))
+        for k, row in enumerate(self.confusion):
+            log('    %-8s %s' % (STAGE_NAMES[k], ' '.join('%4d' % v for v in row)))
+        log('detection per stage (graded stage = true stage), precision / recall:')
+        for k in range(4):
+            log('    %-8s P %s (%d detections)  R %s (%d fruit)' % (
+                STAGE_NAMES[k], _ratio(self.stage_tp[k], self.stage_det[k]), self.stage_det[k],
+                _ratio(self.stage_tp[k], self.stage_gt[k]), self.stage_gt[k]))
+        log('    %-8s P %s (%d detections)  R %s (%d fruit)' % (
+            'any', _ratio(self.any_tp, self.any_det), self.any_det,
+            _ratio(self.any_tp, self.any_gt), self.any_gt))
+        log('CPU time per frame, one core [ms]: detection median %.1f p95 %.1f mean %.1f' % (
+            f['det_ms_median'], f['det_ms_p95'],
+            float(np.mean(self.det_ms)) if self.det_ms else float('nan')))
+        if verbose:
+            for line in self.fp_log:
+                log('FP ' + line)
+            for line in self.fn_log:
+                log('FN ' + line)
+        return f
+
+
+def _ratio(a, b):
+    return '%.3f' % (a / float(b)) if b else '  -  '
+
+
+def _timed_detect(detector, image):
+    t0 = time.process_time()          # CPU time of this (single-threaded) process
+    dets = detector.detect(image)
+    return dets, (time.process_time() - t0) * 1000.0
+
+
+def _det_boxes(dets, w, h):
+    boxes = []
+    for d in dets:
+        x, y, bw, bh = d.box(w, h)
+        boxes.append([x, y, x + bw - 1.0, y + bh - 1.0])
+    return boxes
+
+
 def run(args, log=print):
+    """Renders: detection, grading and 3D error. Returns the figures."""
     cv2.setNumThreads(1)
     detector = load_detector(args.config)
     stereo = load_stereo_params(args.stereo_config)
-    tp = fp = fn = ignored = 0
-    stage_total = stage_ok = 0
-    confusion = np.zeros((4, 4), dtype=int)
+    ev = Evaluation(args.min_ripeness)
     err_all, err_range = [], []
     no_point = 0
-    det_ms, loc_ms, bm_ms = [], [], []
-    frames = 0
-    fp_log, fn_log = [], []
+    loc_ms, bm_ms = [], []
     detector.detect(np.zeros((768, 1024, 3), np.uint8))     # warm-up outside the timing
     for frame in render_frames(args.frames, args.cache_dir, args.seed, log):
-        frames += 1
         right, left = frame['right'], frame['left']
         h, w = right.shape[:2]
-        t0 = time.process_time()          # CPU time of this (single-threaded) process
-        dets = detector.detect(right)
-        det_ms.append((time.process_time() - t0) * 1000.0)
-        gts = frame['fruits']
-        gt_boxes = [clip_box(g['box'], w, h) for g in gts]
-        det_boxes = []
-        for d in dets:
-            x, y, bw, bh = d.box(w, h)
-            det_boxes.append([x, y, x + bw - 1.0, y + bh - 1.0])
-        pairs = dict(match(det_boxes, gt_boxes))
-        care = [g['visible'] >= args.min_visible for g in gts]
-        matched_gt = set(pairs.values())
+        dets, ms = _timed_detect(detector, right)
+        gts = [dict(box=clip_box(g['box'], w, h), stage=stage_of(g['ripeness']), id=g['id'],
+                    care=g['visible'] >= args.min_visible) for g in frame['fruits']]
+        pairs = ev.add(frame['name'], dets, _det_boxes(dets, w, h), gts, ms)
         cloud = None
         p_right = [frame['fx'], 0.0, frame['cx'], -frame['fx'] * frame['baseline'],
                    0.0, frame['fy'], frame['cy'], 0.0, 0.0, 0.0, 1.0, 0.0]
         for i, d in enumerate(dets):
             j = pairs.get(i)
-            det_ripe = d.score >= args.min_ripeness
-            if j is not None and not care[j]:
+            if j is None or not gts[j]['care'] or d.score < args.min_ripeness or \
+                    frame['fruits'][j]['ripeness'] < RIPE:
                 continue
-            if j is not None:
-                g = gts[j]
-                true_stage = stage_of(g['ripeness'])
-                confusion[true_stage, d.stage] += 1
-                stage_total += 1
-                stage_ok += int(true_stage == d.stage)
-            if not det_ripe:
-                continue
-            if j is None and any(not care[k] and gt_boxes[k][0] <= d.u <= gt_boxes[k][2] and
-                                 gt_boxes[k][1] <= d.v <= gt_boxes[k][3]
-                                 for k in range(len(gts))):
-                ignored += 1          # on a mostly hidden fruit: neither TP nor FP
-                continue
-            if j is not None and gts[j]['ripeness'] >= RIPE:
-                tp += 1
-                if cloud is None:
-                    t0 = time.perf_counter()
-                    cloud = localisation.offline_cloud(left, right, stereo, frame['fx'],
-                                                       frame['fy'], frame['cx'], frame['cy'],
-                                                       frame['baseline'])
-                    bm_ms.append((time.perf_counter() - t0) * 1000.0)
+            if cloud is None:
                 t0 = time.perf_counter()
-                loc = localisation.locate(cloud, d, p_right)
-                loc_ms.append((time.perf_counter() - t0) * 1000.0)
-                if loc is None:
-                    no_point += 1
-                    continue
-                err = float(np.linalg.norm(loc.centre - np.array(gts[j]['centre_left'])))
-                err_all.append(err)
-                if 0.4 <= gts[j]['centre_left'][2] <= 0.8:
-                    err_range.append(err)
-            else:
-                fp += 1
-                fp_log.append('%s det %r matched %s' % (
-                    frame['name'], d, 'nothing' if j is None else
-                    '%s ripeness %.3f' % (gts[j]['id'], gts[j]['ripeness'])))
-        for j, g in enumerate(gts):
-            if care[j] and g['ripeness'] >= RIPE:
-                i = next((i for i, jj in pairs.items() if jj == j), None)
-                if i is None or dets[i].score < args.min_ripeness:
-                    fn += 1
-                    fn_log.append('%s gt %s ripeness %.3f visible %.2f %s' % (
-                        frame['name'], g['id'], g['ripeness'], g['visible'],
-                        'undetected' if i is None else 'graded %.3f' % dets[i].score))
-    precision = tp / float(tp + fp) if tp + fp else 1.0
-    recall = tp / float(tp + fn) if tp + fn else 1.0
-    f1 = 2 * precision * recall / (precision + recall) if precision + recall else 0.0
-
-    def pct(values, q):
-        return float(np.percentile(values, q)) if values else float('nan')
-
-    log('frames: %d (%dx%d), detector %s' % (frames, 1024, 768, detector.params))
-    log('ripe-fruit detection (score >= %.2f, IoU >= %.1f, visible >= %.2f): TP %d FP %d FN %d'
-        ' (%d ripe detections on mostly hidden fruit ignored)'
-        % (args.min_ripeness, IOU_MIN, args.min_visible, tp, fp, fn, ignored))
-    log('  precision %.3f  recall %.3f  F1 %.3f' % (precision, recall, f1))
-    log('stage accuracy: %.3f (%d/%d matched fruit)' % (
-        stage_ok / float(stage_total) if stage_total else float('nan'), stage_ok, stage_total))
-    log('  confusion (rows truth, cols detected: %s):' % ', '.join(STAGE_NAMES))
-    for k, row in enumerate(confusion):
-        log('    %-8s %s' % (STAGE_NAMES[k], ' '.join('%4d' % v for v in row)))
+                cloud = localisation.offline_cloud(left, right, stereo, frame['fx'],
+                                                   frame['fy'], frame['cx'], frame['cy'],
+                                                   frame['baseline'])
+                bm_ms.append((time.perf_counter() - t0) * 1000.0)
+            t0 = time.perf_counter()
+            loc = localisation.locate(cloud, d, p_right)
+            loc_ms.append((time.perf_counter() - t0) * 1000.0)
+            if loc is None:
+                no_point += 1
+                continue
+            truth = np.array(frame['fruits'][j]['centre_left'])
+            err = float(np.linalg.norm(loc.centre - truth))
+            err_all.append(err)
+            if 0.4 <= truth[2] <= 0.8:
+                err_range.append(err)
+    log('== renders: %d frames (1024x768), detector %s' % (ev.frames, detector.params))
+    figures = ev.report(log, args.verbose, args.min_visible)
     log('3D pick-point error [mm] (ripe TP, %d without a 3D point): all n=%d median %.1f p95 %.1f;'
         ' depth 0.4-0.8 m n=%d median %.1f p95 %.1f' % (
-            no_point, len(err_all), 1000 * pct(err_all, 50), 1000 * pct(err_all, 95),
-            len(err_range), 1000 * pct(err_range, 50), 1000 * pct(err_range, 95)))
-    log('CPU time per 1024x768 frame, one core [ms]: detection median %.1f p95 %.1f mean %.1f; '
-        'localisation per fruit median %.2f; offline StereoBM median %.0f' % (
-            pct(det_ms, 50), pct(det_ms, 95), float(np.mean(det_ms)) if det_ms else float('nan'),
-            pct(loc_ms, 50), pct(bm_ms, 50)))
-    if args.verbose:
-        for line in fp_log:
-            log('FP ' + line)
-        for line in fn_log:
-            log('FN ' + line)
-    return dict(precision=precision, recall=recall, f1=f1, tp=tp, fp=fp, fn=fn,
-                stage_accuracy=stage_ok / float(stage_total) if stage_total else float('nan'),
-                err_median=pct(err_all, 50), err_p95=pct(err_all, 95),
-                err_range_median=pct(err_range, 50), det_ms_median=pct(det_ms, 50))
+            no_point, len(err_all), 1000 * _pct(err_all, 50), 1000 * _pct(err_all, 95),
+            len(err_range), 1000 * _pct(err_range, 50), 1000 * _pct(err_range, 95)))
+    log('localisation per fruit median %.2f ms; offline StereoBM median %.0f ms' % (
+        _pct(loc_ms, 50), _pct(bm_ms, 50)))
+    figures.update(err_median=_pct(err_all, 50), err_p95=_pct(err_all, 95),
+                   err_range_median=_pct(err_range, 50))
+    return figures
+
+
+# ------------------------------------------------------------------------------ real photos
+STAGE_BY_NAME = {name: k for k, name in enumerate(STAGE_NAMES)}
+
+
+class LabelError(ValueError):
+    """A malformed label file: `FILE: field.path: problem`."""
+
+
+def load_labels(path):
+    """{photo file name: [dict(u, v, r, stage (index), visible)]} of a label YAML."""
+    try:
+        with open(path) as handle:
+            data = yaml.load(handle, Loader=yaml.SafeLoader)
+    except (OSError, yaml.YAMLError) as exc:
+        raise LabelError('%s: %s' % (path, exc))
+    if not isinstance(data, dict) or not isinstance(data.get('photos'), dict):
+        raise LabelError('%s: photos: missing or not a mapping' % path)
+    out = {}
+    for name, photo in data['photos'].items():
+        fruits = (photo or {}).get('fruits') if isinstance(photo, dict) else None
+        if not isinstance(fruits, list):
+            raise LabelError('%s: photos.%s.fruits: missing or not a list' % (path, name))
+        items = []
+        for k, fruit in enumerate(fruits):
+            where = '%s: photos.%s.fruits[%d]' % (path, name, k)
+            if not isinstance(fruit, dict):
+                raise LabelError('%s: not a mapping' % where)
+            try:
+                u, v, r = (float(fruit[key]) for key in ('u', 'v', 'r'))
+                visible = float(fruit.get('visible', 1.0))
+            except (KeyError, TypeError, ValueError) as exc:
+                raise LabelError('%s: u, v, r (numbers) and visible: %s' % (where, exc))
+            if not all(math.isfinite(x) for x in (u, v, r, visible)) or r <= 0 or \
+                    not 0.0 <= visible <= 1.0:
+                raise LabelError('%s: u, v finite, r > 0, 0 <= visible <= 1' % where)
+            stage = STAGE_BY_NAME.get(fruit.get('stage'))
+            if stage is None:
+                raise LabelError('%s.stage: %r is not one of %s' % (
+                    where, fruit.get('stage'), ', '.join(STAGE_NAMES)))
+            items.append(dict(u=u, v=v, r=r, stage=stage, visible=visible,
+                              id='%s#%d' % (name, k)))
+        out[str(name)] = items
+    return out
+
+
+def default_photo_dir():
+    """../shared/data/real-tomato-photos beside the workspace (None when absent)."""
+    workspace = os.path.abspath(os.path.join(_package_dir(), '..', '..'))
+    path = os.path.join(os.path.dirname(workspace), 'shared', 'data', 'real-tomato-photos')
+    return path if os.path.isdir(path) else None
+
+
+def run_photos(args, log=print):
+    """Labelled real photos: detection and grading figures, or None when there are none."""
+    photo_dir = args.photos or default_photo_dir()
+    labels_path = args.labels or os.path.join(_package_dir(), 'data', 'real_tomato_photos.yaml')
+    if not photo_dir or not os.path.isdir(photo_dir):
+        log('== real photos: no photo folder (%s); skipped' % (
+            photo_dir or '../shared/data/real-tomato-photos not found beside the workspace'))
+        return None
+    labels = load_labels(labels_path)
+    cv2.setNumThreads(1)
+    detector = load_detector(args.config)
+    detector.detect(np.zeros((768, 1024, 3), np.uint8))
+    ev = Evaluation(args.min_ripeness)
+    missing = []
+    for name in sorted(labels):
+        image = cv2.imread(os.path.join(photo_dir, name))
+        if image is None:
+            missing.append(name)
+            continue
+        s = args.photo_width / float(image.shape[1])
+        image = cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+        h, w = image.shape[:2]
+        gts = []
+        for f in labels[name]:
+            u, v, r = f['u'] * s, f['v'] * s, f['r'] * s
+            gts.append(dict(box=clip_box([u - r, v - r, u + r, v + r], w, h), stage=f['stage'],
+                            id=f['id'], care=f['visible'] >= args.min_visible and
+                            r >= detector.params['min_radius_px']))
+        times = []
+        for _ in range(args.repeat):
+            dets, ms = _timed_detect(detector, image)
+            times.append(ms)
+        ev.add(name, dets, _det_boxes(dets, w, h), gts, float(np.median(times)))
+        if args.save_dir:
+            from vision_pkg.annotate import annotate
+            os.makedirs(args.save_dir, exist_ok=True)
+            out = annotate(image, [(d, -1) for d in dets])
+            for g in gts:
+                x0, y0, x1, y1 = [int(round(c)) for c in g['box']]
+                cv2.rectangle(out, (x0, y0), (x1, y1), (255, 255, 255) if g['care']
+                              else (128, 128, 128), 1)
+            cv2.imwrite(os.path.join(args.save_dir, os.path.splitext(name)[0] + '.png'), out)
+    others = sorted(set(os.path.basename(p) for p in glob.glob(os.path.join(photo_dir, '*.jpg')))
+                    - set(labels))
+    log('== real photos: %d labelled photos in %s scaled to %d wide%s%s' % (
+        ev.frames, photo_dir, args.photo_width,
+        '; missing: %s' % ', '.join(missing) if missing else '',
+        '; unlabelled (not used): %s' % ', '.join(others) if others else ''))
+    return ev.report(log, args.verbose, args.min_visible)
 
 
 def main(argv):
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
-    parser.add_argument('--frames', type=int, default=200)
+    parser.add_argument('--frames', type=int, default=200, help='rendered frames (0: none)')
     parser.add_argument('--seed', type=int, default=1)
     parser.add_argument('--cache-dir', default='/tmp/vision_bench_frames')
     parser.add_argument('--min-ripeness', type=float, default=RIPE)
     parser.add_argument('--min-visible', type=float, default=0.5)
     parser.add_argument('--config', default=None, help='image_processing.yaml (detector)')
     parser.add_argument('--stereo-config', default=None, help='stereo_image_proc.yaml')
+    parser.add_argument('--photos', default=None,
+                        help='folder of labelled photos (default ../shared/data/real-tomato-photos'
+                             ' beside the workspace; skipped when absent)')
+    parser.add_argument('--labels', default=None,
+                        help='label YAML (default vision_pkg/data/real_tomato_photos.yaml)')
+    parser.add_argument('--photo-width', type=int, default=1024,
+                        help='photos are scaled to this width first')
+    parser.add_argument('--repeat', type=int, default=3,
+                        help='detections per photo; the median CPU time counts')
+    parser.add_argument('--save-dir', default=None,
+                        help='write annotated photos here (outside the repository: the '
+                             'development photos are licensed non-commercial)')
     parser.add_argument('-v', '--verbose', action='store_true', help='list every FP and FN')
     args = parser.parse_args(argv)
-    run(args)
+    if args.frames > 0:
+        run(args)
+    try:
+        run_photos(args)
+    except LabelError as exc:
+        print('bench_detection: %s' % exc)
+        return 1
     return 0

@@ -1,21 +1,39 @@
 """Tomato detection by colour and shape feature fusion (section 3.5.1.2), rospy-free.
 
-Pipeline for one BGR image (run at ~scale for speed, results in full-resolution pixels):
-  1. colour evidence: HSV hue/saturation/value gate for fruit colours (red through yellow-green,
-     i.e. not leaf green), so green, turning, pink and red fruit all enter the candidate mask;
-  2. shape evidence: the distance transform of each connected candidate region; its local maxima
-     (non-maximum suppressed) are fruit centres, which splits touching fruit in a cluster; the
-     region's pixels go to the nearest centre in the power-diagram sense (|x - c|^2 - r^2);
-  3. a circle fitted to each part's outer boundary points that lie on its convex hull (leaf
-     notches and the cut between touching fruit are ignored), validated by fill ratio and by
-     the fraction of the part inside the circle; green parts must look rounder than ripe ones;
-  4. ripeness from the mean colour of the fruit skin (highlights, clipped and deep-shadow pixels
-     excluded) as its red chromaticity r = R / (R + G + B): independent of brightness and
-     shading, and monotone from mature green (~0.30) through turning and pink to deep red
-     (~0.88). A piecewise-linear calibration curve (score_chroma -> score_values, measured on
-     the simulated crop, see README) maps it to a 0..1 score, then to the four stages
-     green < 0.25 <= turning < 0.5 <= pink < 0.7 <= red. The CIE Lab hue angle is kept for
-     diagnostics.
+Made to hold on real photographs as well as on harvest_sim's renders. For one BGR image:
+  0. working copy: resized to ~scale, and at most ~max_work_width pixels wide, so the cost per
+     frame is bounded whatever the camera (results come back in full-resolution pixels);
+  1. colour constancy: the scene's illuminant is estimated from its brightest unclipped pixels
+     among those an illuminant could have tinted from white or grey (white film, pipes,
+     specular highlights: a white reference from the scene; daylight, warm light and red/blue
+     LED casts lie near neutral, red fruit and green leaves do not) and divided out with
+     per-channel gains; without such a reference the image is left as it is;
+  2. colour evidence on the balanced image (OpenCV HSV): "ripe colours" (red, orange, pink:
+     hue <= ~hue_max or >= ~hue_wrap, saturated: skin and wood are paler) and "green-fruit
+     colours" (yellow-green to green); a ripe-colour mask is closed once more with a larger
+     kernel (~bridge_px) through green or dark pixels only, so sepals and stems across a fruit
+     do not cut it into pieces (those bridged pixels never count for its colour);
+  3. shape evidence: connected regions, the distance transform's peaks split touching fruit
+     (power diagram), a robust circle fit on outline pixels on the convex hull (leaf notches
+     ignored; a RANSAC arc fit when a leaf edge cuts the outline), one-circle vs split vs
+     joined-parts hypotheses compared by outline misfit; validated by fill ratio and by the
+     fraction of the part inside the circle;
+  4. green fruit share their colour with leaves, so a region with green-fruit colour (pass 2,
+     at ~green_scale of the working size) is a fruit only when its shape and surface say so:
+     a part no larger than ~max_area_ratio times its inscribed circle (leaf strips are
+     longer), an outline that one circle follows (median misfit <= ~max_residual_green), a
+     well filled disc (~min_fill_green), and a brightness edge along most of the circle
+     (~min_edge_support): a smooth, shaded sphere ends in an edge all round, a leaf's outline
+     does not follow a circle;
+  5. ripeness from the skin's colour on the balanced image: every skin pixel's hue (highlights,
+     clipped and dark pixels excluded) maps to a per-pixel ripeness through a monotone
+     piecewise-linear curve (score_hue -> score_values), desaturated pixels are pulled
+     towards the middle (pale pink is not deep red), and the fruit's score is their mean, so
+     a fruit half green and half red scores in between, as the colour-chart stages do:
+     green < 0.25 <= turning < 0.5 <= pink < 0.7 <= red. Calibration and its source: README.
+Cost is bounded by design: pixel work is vectorised OpenCV/numpy at the working size, regions
+too small are rejected from their statistics before any per-region work, at most
+~max_regions regions per pass (largest first) and ~max_peaks fruit per region are examined.
 """
 import math
 
@@ -27,15 +45,34 @@ STAGE_NAMES = ('green', 'turning', 'pink', 'red')
 #: score thresholds between consecutive stages
 STAGE_THRESHOLDS = (0.25, 0.5, 0.7)
 
-#: default parameters (ROS params of the same names override them; see config/detection.yaml)
+#: default parameters (ROS params of the same names override them; see config/*.yaml)
 DEFAULTS = {
     'scale': 0.5,               # processing scale of the input image
+    'max_work_width': 640,      # ... and at most this many pixels wide (0: no cap)
     'min_radius_px': 20.0,      # smallest fruit radius [px, full resolution]
     'max_radius_px': 200.0,     # largest fruit radius [px, full resolution]
-    'hue_max': 42,              # fruit hue band: OpenCV hue (0..180) <= hue_max or >= hue_wrap
-    'hue_wrap': 165,
-    'sat_min': 80,              # HSV saturation floor of fruit skin (0..255)
-    'val_min': 10,              # HSV value floor (0..255)
+    # colour constancy (white reference from the scene's brightest pixels)
+    'white_balance': True,
+    'wb_top_fraction': 0.02,    # brightest fraction of the reference candidates averaged
+    'wb_chroma_box': 0.16,      # candidates: each chromaticity within this of 1/3 ...
+    'wb_max_green': 0.36,       # ... and green chromaticity at most this (no light is green)
+    'wb_min_fraction': 0.003,   # fewer candidates (share of the pixels): no white reference
+    'wb_max_gain': 2.0,         # per-channel gain limit
+    # ripe colours on the balanced image: OpenCV hue (0..180) <= hue_max or >= hue_wrap
+    'hue_max': 22,
+    'hue_wrap': 160,
+    'sat_min': 100,             # HSV saturation floor of fruit skin (0..255; skin, wood: less)
+    'val_min': 25,              # HSV value floor (0..255)
+    # green-fruit colours (hue_max < hue <= green_hue_max) and surface
+    'green_hue_max': 50,
+    'green_sat_min': 55,
+    'green_val_min': 45,
+    'green_scale': 0.5,         # pass 2 (green fruit) runs at this fraction of the working size
+    'edge_min': 0.12,           # gradient / brightness of an outline edge
+    'min_edge_support': 0.6,    # fraction of a green fruit's circle that is such a radial edge
+    'max_residual_green': 0.035,  # outline misfit (median / r) of a green fruit's circle
+    'max_area_ratio': 2.0,      # a green part's area / the area of its inscribed circle
+    # shape
     'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
     'min_fill_green': 0.6,      # same for green-coloured fruit (stricter: leaves are green)
     'min_inside': 0.85,         # fraction of the part's pixels inside its fitted circle
@@ -44,14 +81,17 @@ DEFAULTS = {
                                     # misfit [px at ~scale] (and better than its parts) is one fruit
     'join_residual_px': 1.2,    # two overlapping parts whose joint outline fits one circle within
                                 # this median misfit [px at ~scale] are one fruit (leaf-cut outline)
-    'hue_split': 15,            # OpenCV hue: red/orange pass up to here, then the whole band
     'open_px': 5,               # opening kernel [px at ~scale]: removes stems and twine
-    'close_px': 5,              # closing kernel [px at ~scale]: bridges stems in front of fruit
+    'close_px': 9,              # closing kernel [px at ~scale]: bridges stems and sepals on fruit
+    'bridge_px': 15,            # larger closing of ripe colours through green or dark pixels only
+    'bridge_val_max': 90,       # ... dark = HSV value up to this
     'merge_score_diff': 0.25,   # fragments of one fruit: at most this ripeness-score apart
-    # ripeness calibration: red chromaticity knots and the scores they map to (monotone)
-    'score_chroma': [0.30, 0.36, 0.42, 0.46, 0.50, 0.534, 0.62, 0.70, 0.766, 0.81, 0.842, 0.875],
-    'score_values': [0.0, 0.175, 0.275, 0.325, 0.425, 0.525, 0.625, 0.70, 0.825, 0.925, 0.975,
-                     1.0],
+    'max_regions': 30,          # regions examined per pass (largest first)
+    'max_peaks': 6,             # fruit hypotheses per region
+    # ripeness calibration: per-pixel wrapped hue (OpenCV units, red = 0) -> ripeness knots
+    'score_hue': [4.0, 10.0, 15.0, 19.0, 23.0, 27.0, 31.0, 36.0, 42.0],
+    'score_values': [1.0, 0.9, 0.75, 0.6, 0.45, 0.32, 0.18, 0.06, 0.0],
+    'pale_sat': 110,            # pixels less saturated than this drift towards score 0.5
 }
 
 
@@ -201,6 +241,16 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     return refit
 
 
+class _Frame(object):
+    """The working images of one detect() call."""
+
+    __slots__ = ('small', 'hsv', 'scale', 'green', 'fill', 'gx', 'gy')
+
+    def __init__(self, small, hsv, scale, green):
+        self.small, self.hsv, self.scale, self.green = small, hsv, scale, green
+        self.fill = self.gx = self.gy = None
+
+
 class TomatoDetector(object):
     """Finds tomatoes in BGR images; parameters as in DEFAULTS."""
 
@@ -209,91 +259,319 @@ class TomatoDetector(object):
         if unknown:
             raise ValueError('unknown detector parameters: %s' % sorted(unknown))
         self.params = dict(DEFAULTS)
-        self.params.update(params)
+        self._lut = None
+        #: a list to collect the evidence of every strict-pass candidate (tuning), or None
+        self.trace = None
+        self.update(**params)
 
     def update(self, **params):
-        """Change parameters at run time (dynamic_reconfigure)."""
+        """Change parameters at run time (dynamic_reconfigure); unknown keys are ignored."""
         for key, value in params.items():
             if key in DEFAULTS:
-                self.params[key] = type(DEFAULTS[key])(value)
-        if len(self.params['score_chroma']) != len(self.params['score_values']):
-            raise ValueError('score_chroma and score_values must have the same length')
+                kind = type(DEFAULTS[key])
+                self.params[key] = [float(x) for x in value] if kind is list else kind(value)
+        p = self.params
+        if len(p['score_hue']) != len(p['score_values']) or len(p['score_hue']) < 2:
+            raise ValueError('score_hue and score_values must have the same length (>= 2)')
+        if any(b <= a for a, b in zip(p['score_hue'][:-1], p['score_hue'][1:])):
+            raise ValueError('score_hue must increase')
+        for key in ('scale', 'min_radius_px', 'max_radius_px', 'wb_max_gain'):
+            if not (math.isfinite(p[key]) and p[key] > 0):
+                raise ValueError('detector parameter %s must be a positive number, not %r'
+                                 % (key, p[key]))
+        self._lut = self._score_table()
+
+    def _score_table(self):
+        """Per-pixel ripeness as a 180 x 256 table over (OpenCV hue, saturation)."""
+        p = self.params
+        hue = np.arange(180, dtype=np.float64)
+        wrapped = np.where(hue >= 90, hue - 180.0, hue)       # purple-red wraps to below 0
+        ripe = np.interp(wrapped, p['score_hue'], p['score_values'])
+        sat = np.arange(256, dtype=np.float64)
+        pale = np.clip(sat / max(float(p['pale_sat']), 1.0), 0.0, 1.0)
+        table = 0.5 + (ripe[:, None] - 0.5) * pale[None, :]
+        return table.astype(np.float32)
 
     # -- colour -------------------------------------------------------------------------------
-    def colour_mask(self, hsv, hue_max=None):
-        """Fruit-colour pixels: hue <= hue_max (default ~hue_max) or >= ~hue_wrap, S, V floors."""
+    def working_scale(self, width):
+        """Processing scale for an image `width` pixels wide."""
+        p = self.params
+        scale = float(p['scale'])
+        cap = int(p['max_work_width'])
+        if cap > 0 and width * scale > cap:
+            scale = cap / float(width)
+        return scale
+
+    def white_gains(self, bgr):
+        """Per-channel gains (B, G, R) that make the scene's white reference neutral.
+
+        Reference candidates are unclipped, not dark pixels whose chromaticity an illuminant
+        could give to a white or grey surface (film, pipes, specular highlights): within
+        `wb_chroma_box` of neutral and never greener than `wb_max_green` (no greenhouse or
+        plant-factory light is green, but leaves are). Red or orange fruit skin lies outside
+        the box. The reference is the mean of the brightest `wb_top_fraction` of them
+        (a sample of every 4th pixel in each direction); with fewer than `wb_min_fraction` of
+        the sample as candidates there is no white reference and the gains are 1. Gains keep
+        the mean brightness and stay within [1 / wb_max_gain, wb_max_gain]."""
+        p = self.params
+        ones = np.ones(3, dtype=np.float64)
+        if not p['white_balance']:
+            return ones
+        pix = bgr[::4, ::4].reshape(-1, 3)
+        top = pix.max(axis=1)
+        total = pix.astype(np.int32).sum(axis=1)
+        chroma = pix.astype(np.float32) / np.maximum(total, 1)[:, None].astype(np.float32)
+        box = float(p['wb_chroma_box'])
+        neutral = 1.0 / 3.0
+        cand = (top < 250) & (top > 60) & (np.abs(chroma - neutral).max(axis=1) <= box) & \
+            (chroma[:, 1] <= float(p['wb_max_green']))
+        count = int(cand.sum())
+        if count < max(20, float(p['wb_min_fraction']) * len(pix)):
+            return ones
+        total = total[cand]
+        k = max(int(count * float(p['wb_top_fraction'])), 20)
+        k = min(k, count)
+        brightest = pix[cand][np.argpartition(total, count - k)[-k:]]
+        ref = brightest.astype(np.float64).mean(axis=0)
+        gains = (ref.sum() / 3.0) / np.maximum(ref, 1.0)
+        gains /= gains.mean()
+        bound = float(p['wb_max_gain'])
+        return np.clip(gains, 1.0 / bound, bound)
+
+    def balance(self, bgr):
+        """(white-balanced uint8 copy, gains) of a BGR image."""
+        gains = self.white_gains(bgr)
+        if np.allclose(gains, 1.0):
+            return bgr, gains
+        return cv2.transform(bgr, np.diag(gains).astype(np.float32)), gains
+
+    def colour_masks(self, hsv):
+        """(ripe-colour mask, green-fruit-colour mask) of a balanced HSV image (uint8 0/255)."""
         p = self.params
         h, s, v = cv2.split(hsv)
-        top = int(p['hue_max'] if hue_max is None else hue_max)
-        hue_ok = cv2.bitwise_or(cv2.inRange(h, 0, top), cv2.inRange(h, int(p['hue_wrap']), 180))
+        hue_ok = cv2.bitwise_or(cv2.inRange(h, 0, int(p['hue_max'])),
+                                cv2.inRange(h, int(p['hue_wrap']), 180))
         sv_ok = cv2.bitwise_and(cv2.inRange(s, int(p['sat_min']), 255),
                                 cv2.inRange(v, int(p['val_min']), 255))
-        return cv2.bitwise_and(hue_ok, sv_ok)
+        ripe = cv2.bitwise_and(hue_ok, sv_ok)
+        green = cv2.bitwise_and(
+            cv2.inRange(h, int(p['hue_max']) + 1, int(p['green_hue_max'])),
+            cv2.bitwise_and(cv2.inRange(s, int(p['green_sat_min']), 255),
+                            cv2.inRange(v, int(p['green_val_min']), 255)))
+        return ripe, green
 
-    def _clean(self, mask):
-        """Opening removes stems, twine and speckle; closing bridges thin gaps on the fruit."""
+    def colour_mask(self, hsv):
+        """Fruit-colour pixels of any stage (ripe or green-fruit colours)."""
+        ripe, green = self.colour_masks(hsv)
+        return cv2.bitwise_or(ripe, green)
+
+    @staticmethod
+    def gradient_maps(gray):
+        """(gx, gy) float32 brightness gradient of a grey image relative to the local mean
+        brightness, so an outline's edge strength does not depend on the exposure."""
+        g = gray.astype(np.float32)
+        bright = cv2.blur(g, (5, 5)) + 12.0
+        gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / (4.0 * bright)
+        gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / (4.0 * bright)
+        return gx, gy
+
+    def _clean(self, mask, factor=1.0):
+        """Opening removes stems, twine and speckle; closing bridges thin gaps on the fruit
+        (kernels scaled by `factor` for a smaller image)."""
         p = self.params
-        for op, size in ((cv2.MORPH_OPEN, int(p['open_px'])), (cv2.MORPH_CLOSE,
-                                                                 int(p['close_px']))):
+        for op, size in ((cv2.MORPH_OPEN, p['open_px']), (cv2.MORPH_CLOSE, p['close_px'])):
+            size = int(round(size * factor)) | 1
             if size > 1:
                 mask = cv2.morphologyEx(mask, op, cv2.getStructuringElement(
                     cv2.MORPH_ELLIPSE, (size, size)))
         return mask
 
-    def score_of(self, bgr_pixels):
-        """(score, red chromaticity, Lab hue angle [deg]) of an Nx3 uint8 BGR skin sample."""
-        if len(bgr_pixels) == 0:
+    def _bridge(self, mask, hsv, green):
+        """Sepals and stems across a fruit, too thick for the closing: a larger closing
+        (`bridge_px`) fills only green or dark pixels (sepals, stems, shadow), never the
+        bright background between two fruit."""
+        size = int(self.params['bridge_px'])
+        if size <= 1:
+            return mask
+        closed = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, cv2.getStructuringElement(
+            cv2.MORPH_ELLIPSE, (size, size)))
+        fillable = cv2.bitwise_or(green, cv2.inRange(hsv[:, :, 2], 0,
+                                                     int(self.params['bridge_val_max'])))
+        return cv2.bitwise_or(mask, cv2.bitwise_and(closed, fillable))
+
+    def pixel_ripeness(self, hsv_pixels):
+        """Per-pixel ripeness (0..1) of Nx3 uint8 HSV pixels."""
+        hsv_pixels = np.asarray(hsv_pixels, dtype=np.uint8).reshape(-1, 3)
+        return self._lut[np.minimum(hsv_pixels[:, 0], 179), hsv_pixels[:, 1]]
+
+    def _score_pixels(self, hsv_pixels, bgr_pixels):
+        """score_of() for pixels whose HSV values are known."""
+        if len(hsv_pixels) == 0:
             return 0.0, float('nan'), float('nan')
-        mean = bgr_pixels.reshape(-1, 3).astype(np.float64).mean(axis=0)
+        score = float(self.pixel_ripeness(hsv_pixels).mean())
+        mean = bgr_pixels.astype(np.float64).mean(axis=0)
         total = float(mean.sum())
         chroma = float(mean[2]) / total if total > 0 else 0.0
-        lab = cv2.cvtColor(np.uint8(np.clip(mean + 0.5, 0, 255)).reshape(1, 1, 3),
-                           cv2.COLOR_BGR2LAB).reshape(3).astype(np.float64) - 128.0
-        angle = math.degrees(math.atan2(lab[2], lab[1]))
-        p = self.params
-        score = float(np.interp(chroma, p['score_chroma'], p['score_values']))
-        return min(max(score, 0.0), 1.0), chroma, angle
+        # CIE Lab hue angle of the mean colour (diagnostics; OpenCV's float Lab, which has no
+        # per-call table set-up, unlike the 8-bit conversion)
+        lab = cv2.cvtColor((mean / 255.0).astype(np.float32).reshape(1, 1, 3),
+                           cv2.COLOR_BGR2LAB).reshape(3)
+        return min(max(score, 0.0), 1.0), chroma, math.degrees(math.atan2(lab[2], lab[1]))
+
+    def score_of(self, bgr_pixels):
+        """(score, red chromaticity, Lab hue angle [deg]) of an Nx3 uint8 BGR skin sample
+        (already white-balanced)."""
+        bgr_pixels = np.asarray(bgr_pixels, dtype=np.uint8).reshape(-1, 3)
+        if len(bgr_pixels) == 0:
+            return 0.0, float('nan'), float('nan')
+        hsv = cv2.cvtColor(bgr_pixels.reshape(-1, 1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3)
+        return self._score_pixels(hsv, bgr_pixels)
 
     # -- main ---------------------------------------------------------------------------------
     def detect(self, bgr):
         """Detect tomatoes in a BGR uint8 image. Returns a list of Detection."""
+        if bgr is None or bgr.ndim != 3 or bgr.shape[2] != 3 or bgr.dtype != np.uint8:
+            raise ValueError('detect() takes a BGR uint8 image (H x W x 3)')
         p = self.params
-        scale = float(p['scale'])
-        if scale != 1.0:
+        scale = self.working_scale(bgr.shape[1])
+        if abs(scale - 1.0) > 1e-9:
             small = cv2.resize(bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
         else:
             small = bgr
+        small, _ = self.balance(small)
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
         r_min = p['min_radius_px'] * scale
         r_max = p['max_radius_px'] * scale
-        # pass 1: red to orange (pink and red fruit, the red side of turning ones)
-        red = self._candidates(self._clean(self.colour_mask(hsv, p['hue_split'])), small, hsv,
-                               r_min, r_max, scale, strict=False)
-        # pass 2: the whole fruit band, which also takes in yellowish stems, twine and leaves
-        # in dim warm light: only round, well-filled fruit not already found in pass 1
-        full = self._candidates(self._clean(self.colour_mask(hsv)), small, hsv, r_min, r_max,
-                                scale, strict=True)
-        found = list(red)
-        for det in full:
-            if all(math.hypot(det.u - o.u, det.v - o.v) > 0.8 * max(det.radius_px, o.radius_px)
-                   for o in red):
-                found.append(det)
+        ripe, green = self.colour_masks(hsv)
+        frame = _Frame(small, hsv, scale, green)
+        # pass 1: ripe colours (red, orange, pink; the coloured part of turning fruit)
+        ripe = self._clean(ripe)
+        bridged = self._bridge(ripe, hsv, green)
+        if bridged is not ripe:
+            frame.fill = cv2.bitwise_and(bridged, cv2.bitwise_not(ripe))
+        found = self._candidates(bridged, frame, r_min, r_max, strict=False)
+        frame.fill = None
+        # pass 2: every fruit colour; regions with green-fruit colour must be round, well
+        # filled and outlined by a circular brightness edge (leaves are green too).
+        # Green regions can be large (the canopy), so this pass runs at ~green_scale of the
+        # working size: green fruit matter as obstacles and for the record, not for 3D.
+        if cv2.countNonZero(green) > math.pi * r_min * r_min * 0.3:
+            factor = float(p['green_scale'])
+            if factor < 1.0:
+                small2 = cv2.resize(small, None, fx=factor, fy=factor,
+                                    interpolation=cv2.INTER_AREA)
+                hsv2 = cv2.cvtColor(small2, cv2.COLOR_BGR2HSV)
+                ripe2, green2 = self.colour_masks(hsv2)
+                ripe2 = self._clean(ripe2, factor)
+            else:
+                factor, small2, hsv2, ripe2, green2 = 1.0, small, hsv, ripe, green
+            frame2 = _Frame(small2, hsv2, scale * factor, green2)
+            frame2.gx, frame2.gy = self.gradient_maps(cv2.cvtColor(small2, cv2.COLOR_BGR2GRAY))
+            both = cv2.bitwise_or(ripe2, green2)
+            for det in self._candidates(self._clean(both, factor), frame2, r_min * factor,
+                                        r_max * factor, strict=True, need=green2):
+                if all(math.hypot(det.u - o.u, det.v - o.v) > 0.8 * max(det.radius_px,
+                                                                         o.radius_px)
+                       for o in found):
+                    found.append(det)
         return self._merge_fragments(found)
 
-    def _candidates(self, mask, small, hsv, r_min, r_max, scale, strict):
+    def _candidates(self, mask, frame, r_min, r_max, strict, need=None):
+        """Fruit in the regions of a mask; with `need`, only regions of which at least a
+        tenth is in that mask (the strict pass: regions with green-fruit colour)."""
         count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
         height, width = mask.shape
+        areas = stats[1:, cv2.CC_STAT_AREA]
+        sizes = np.maximum(stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT])
+        ok = (areas >= math.pi * r_min * r_min * 0.3) & (sizes >= 1.5 * r_min)
+        if need is not None:
+            needed = np.bincount(labels[need > 0], minlength=count)[1:]
+            ok &= needed >= 0.1 * areas
+        order = np.flatnonzero(ok)
+        order = order[np.argsort(-areas[order], kind='stable')][:int(self.params['max_regions'])]
         detections = []
-        for label in range(1, count):
-            x, y, w, h, area = stats[label]
-            if area < math.pi * r_min * r_min * 0.3 or max(w, h) < 1.5 * r_min:
-                continue
+        for index in order:
+            label = int(index) + 1
+            x, y, w, h, _ = stats[label]
             x0, y0 = max(x - 1, 0), max(y - 1, 0)
             x1, y1 = min(x + w + 1, width), min(y + h + 1, height)
             comp = _fill_holes((labels[y0:y1, x0:x1] == label).astype(np.uint8))
-            detections.extend(self._split_component(comp, (x0, y0), small, hsv, r_min, r_max,
-                                                    scale, (width, height), strict))
+            detections.extend(self._split_component(comp, (x0, y0), frame, r_min, r_max,
+                                                    (width, height), strict))
         return detections
+
+    @staticmethod
+    def _skin_pixels(frame, part, ox, oy, cx, cy, radius):
+        """(rows, cols) in the working image of the skin sample of a fruit circle."""
+        height, width = frame.hsv.shape[:2]
+        x0, y0 = max(int(cx + ox - radius), 0), max(int(cy + oy - radius), 0)
+        x1 = min(int(math.ceil(cx + ox + radius)) + 1, width)
+        y1 = min(int(math.ceil(cy + oy + radius)) + 1, height)
+        if x0 >= x1 or y0 >= y1:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        yy, xx = np.mgrid[y0:y1, x0:x1]
+        disc = (xx - (cx + ox)) ** 2 + (yy - (cy + oy)) ** 2 <= radius * radius
+        on_part = np.zeros(disc.shape, dtype=bool)
+        px0, py0 = max(x0 - ox, 0), max(y0 - oy, 0)
+        px1, py1 = min(x1 - ox, part.shape[1]), min(y1 - oy, part.shape[0])
+        if px0 < px1 and py0 < py1:
+            on_part[py0 + oy - y0:py1 + oy - y0, px0 + ox - x0:px1 + ox - x0] = \
+                part[py0:py1, px0:px1]
+        skin = disc & on_part
+        if frame.fill is not None:
+            skin &= frame.fill[y0:y1, x0:x1] == 0
+        rows, cols = np.nonzero(skin)
+        return rows + y0, cols + x0
+
+    def _round_fruit_surface(self, frame, cx, cy, r, hsv_px, circle, fill, inside, score):
+        """Surface and outline evidence of a candidate from the strict pass (a green fruit
+        must be told from leaves by more than colour)."""
+        p = self.params
+        support = self.edge_support(frame, cx, cy, r)
+        if self.trace is not None:
+            self.trace.append(dict(
+                cx=cx / frame.scale, cy=cy / frame.scale, r=r / frame.scale, score=score,
+                fill=fill, inside=inside, residual=circle[3] if len(circle) > 3 else 1.0,
+                edges=self.edge_profile(frame, cx, cy, r).tolist(),
+                highlight=float(np.mean((hsv_px[:, 1] < 70) & (hsv_px[:, 2] > 170)))
+                if len(hsv_px) else 0.0,
+                sat=float(np.median(hsv_px[:, 1])) if len(hsv_px) else 0.0,
+                val=float(np.median(hsv_px[:, 2])) if len(hsv_px) else 0.0,
+                hue_iqr=float(np.subtract(*np.percentile(hsv_px[:, 0], [75, 25])))
+                if len(hsv_px) else 0.0))
+            return True
+        residual = circle[3] if len(circle) > 3 else 1.0
+        return support >= p['min_edge_support'] and residual <= p['max_residual_green'] and \
+            fill >= p['min_fill_green']
+
+    def edge_profile(self, frame, cx, cy, r, samples=48):
+        """Strongest radial edge (relative gradient) within +-2 px of each of `samples` points
+        of a circle (working pixels); NaN where the circle leaves the image."""
+        height, width = frame.gx.shape
+        a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
+        ca, sa = np.cos(a), np.sin(a)
+        best = np.zeros(samples, dtype=np.float32)
+        inside = np.zeros(samples, dtype=bool)
+        for dr in (-2.0, -1.0, 0.0, 1.0, 2.0):
+            xs = np.rint(cx + (r + dr) * ca).astype(np.int64)
+            ys = np.rint(cy + (r + dr) * sa).astype(np.int64)
+            ok = (xs >= 1) & (ys >= 1) & (xs < width - 1) & (ys < height - 1)
+            inside |= ok
+            xs, ys = np.clip(xs, 0, width - 1), np.clip(ys, 0, height - 1)
+            radial = np.abs(frame.gx[ys, xs] * ca + frame.gy[ys, xs] * sa)
+            best = np.maximum(best, np.where(ok, radial, 0.0))
+        return np.where(inside, best, np.nan)
+
+    def edge_support(self, frame, cx, cy, r, samples=48):
+        """Fraction of a circle (working pixels) along which the brightness has a radial edge
+        of at least `edge_min` (relative gradient), within +-2 px of the circle."""
+        if frame.gx is None:
+            return 1.0
+        best = self.edge_profile(frame, cx, cy, r, samples)
+        best = best[np.isfinite(best)]
+        if not len(best):
+            return 0.0
+        return float(np.mean(best >= float(self.params['edge_min'])))
 
     def _merge_fragments(self, detections):
         """Drop fragments whose centre lies inside a larger, similarly coloured fruit.
@@ -328,10 +606,13 @@ class TomatoDetector(object):
             if all(math.hypot(px - qx, py - qy) > sep * max(qr, pr) + 1.0
                    for qx, qy, qr in peaks):
                 peaks.append((px, py, pr))
+                if len(peaks) >= int(self.params['max_peaks']):
+                    break
         return peaks
 
-    def _split_component(self, comp, origin, small, hsv, r_min, r_max, scale, size, strict):
+    def _split_component(self, comp, origin, frame, r_min, r_max, size, strict):
         p = self.params
+        small, hsv, scale = frame.small, frame.hsv, frame.scale
         dist = cv2.distanceTransform(comp, cv2.DIST_L2, 5)
         peaks = self._peaks(dist, r_min)
         if not peaks:
@@ -362,13 +643,16 @@ class TomatoDetector(object):
         peak_rs = []
         for k, (px, py, pr) in enumerate(peaks):
             part = (parts == k)
-            if part.sum() < math.pi * r_min * r_min * 0.3:
+            area = part.sum()
+            if area < math.pi * r_min * r_min * 0.3:
                 continue
+            if strict and area > p['max_area_ratio'] * math.pi * pr * pr:
+                continue      # far larger than its inscribed circle: a leaf or canopy strip
             circle = self._fit_part(part, outer, pr)
             if circle is not None:
                 candidates.append((part, circle))
                 peak_rs.append(pr)
-        if len(candidates) > 1:
+        if len(candidates) > 1 and not strict:
             candidates = self._join_parts(candidates, peak_rs, outer)
         if len(peaks) > 1:
             # hypothesis B: one fruit seen in pieces (a leaf or stem in front of it) also has
@@ -393,18 +677,21 @@ class TomatoDetector(object):
             pys, pxs = np.nonzero(part)
             inside = float(np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2))
             fill = area / (math.pi * r * r)
-            # skin pixels for colour: inside 0.85 r, not highlight, not deep shadow
-            skin = ((pxs - cx) ** 2 + (pys - cy) ** 2 <= (0.85 * r) ** 2)
-            sy, sx = pys[skin] + oy, pxs[skin] + ox
+            # skin pixels for colour: inside 0.85 r, on the part, not bridged (sepals), not
+            # highlight or deep shadow
+            sy, sx = self._skin_pixels(frame, part, ox, oy, cx, cy, 0.85 * r)
             hsv_px = hsv[sy, sx]
             bgr_px = small[sy, sx]
             good = (hsv_px[:, 2] > 2 * p['val_min']) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200)) & \
                 (bgr_px.max(axis=1) < 250)
-            score, chroma, angle = self.score_of(bgr_px[good])
+            score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good])
             min_fill = p['min_fill_green'] if strict or score < STAGE_THRESHOLDS[0] else \
                 p['min_fill']
             if inside < p['min_inside'] or fill < min_fill:
                 continue
+            if strict and not self._round_fruit_surface(frame, cx + ox, cy + oy, r, hsv_px,
+                                                        circle, fill, inside, score):
+                continue          # not round, or no edge all round: a leaf
             x0 = max(int(math.floor(cx - r)) - 1, 0)
             y0 = max(int(math.floor(cy - r)) - 1, 0)
             crop = part[y0:int(math.ceil(cy + r)) + 2, x0:int(math.ceil(cx + r)) + 2]
@@ -458,14 +745,19 @@ class TomatoDetector(object):
         lie on its convex hull; residual = median radial misfit / r (1.0 for the fallback)."""
         edge = part & outer
         ys, xs = np.nonzero(edge)
-        pys, pxs = np.nonzero(part)
-        if len(pxs) == 0:
+        part8 = part.astype(np.uint8)
+        moments = cv2.moments(part8, True)
+        if moments['m00'] <= 0:
             return None
-        mx, my = float(pxs.mean()), float(pys.mean())
-        fallback = (mx, my, max(peak_r, math.sqrt(len(pxs) / math.pi)), 1.0)
+        mx, my = moments['m10'] / moments['m00'], moments['m01'] / moments['m00']
+        fallback = (mx, my, max(peak_r, math.sqrt(moments['m00'] / math.pi)), 1.0)
         if len(xs) < 8:
             return fallback
-        hull = cv2.convexHull(np.column_stack([pxs, pys]).astype(np.int32))
+        # the hull of a region is the hull of its outline
+        contours = cv2.findContours(part8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)[-2]
+        if not contours:
+            return fallback
+        hull = cv2.convexHull(np.vstack(contours))
         if hull is None or len(hull) < 3:
             return fallback
         on_hull = _hull_distance(hull, xs, ys) <= 1.5
