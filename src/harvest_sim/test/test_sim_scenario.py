@@ -10,7 +10,7 @@ import yaml
 from sim_fixtures import GEOM, SCENARIOS, scn
 
 NAMED = ['default', 'three_targets', 'dense_cluster', 'low_light', 'empty_point',
-         'unripe_only', 'out_of_reach', 'long_row']
+         'unripe_only', 'out_of_reach', 'long_row', 'plant_factory_led', 'greenhouse_daylight']
 
 
 def load(name):

@@ -8,15 +8,24 @@ floor (z = 0) and the roof (z = ROOF_Z): textured planes ray-cast at half resolu
 texture atlas and scaled up. Every surface carries texture fixed in 3-D, so block matching
 finds the same pattern in both eyes.
 
-Shading: Lambert + ambient + Blinn-Phong highlights with the scenario's light (intensity, colour,
-direction); fruit get a calyx (star of sepals round the peduncle), a fine surface texture, and
-ripen from the bottom up (green shoulders on turning fruit). Sensor noise (Gaussian, sigma
-`noise_sigma` DN) comes from a per-camera bank generated from the scenario seed, so a frame is a
-deterministic function of (seed, camera name, frame index, scene).
+Shading: Lambert + ambient with the scenario's light (intensity, colour, direction); fruit
+skin is glossy (a sharp highlight of the light, a broad sheen, a soft highlight of the bright
+sky/film above and Fresnel brightening at grazing angles), carries a fine surface texture and
+ripens unevenly: from the blossom end up and in blotches (turning and pink fruit are mottled,
+with green shoulders; mature green fruit have pale shoulders). Every fruit wears a calyx: a
+star of thin green sepals (3-D capsules lying on the shoulders, tips lifting off) round the
+pedicel. The background planes show the scenario's look.background (dense foliage, foliage
+with plastic film and greenhouse equipment between the plants, or film with sparse plants).
 
-Colour of a fruit by ripeness (albedo, RGB 0..1, interpolated; see RIPENESS_COLOURS):
-green (0) -> light green (0.2) -> turning yellow-orange (0.35) -> pink (0.55) -> red (0.7)
--> deep red (1.0).
+Every frame then goes through the camera look of harvest_sim/look.py (white balance, exposure,
+tone curve, blur, vignetting, Bayer mosaic with signal-dependent noise, demosaicing, JPEG),
+drawn per (scenario seed, camera model) and the scenario's look.kind; the noise comes from a
+bank per camera name (eye) seeded by the scenario seed, so a frame is a deterministic function
+of (seed, camera name, frame index, scene).
+
+Colour of a fruit by ripeness (display sRGB 0..1, interpolated; see RIPENESS_COLOURS), measured
+on real photographs (tools/measure_fruit_colours.py, README): mature green (0-0.2) ->
+turning yellow-orange (0.35) -> pink-orange (0.55) -> orange-red (0.7) -> red (1.0).
 """
 
 import math
@@ -25,18 +34,35 @@ from collections import namedtuple
 import cv2
 import numpy as np
 
-from harvest_sim import camera_model
+from harvest_sim import camera_model, look as camera_look
 
 ROOF_Z = 3.2
 NEAR = 0.01
-#: (ripeness, RGB albedo)
-RIPENESS_COLOURS = ((0.0, (0.30, 0.55, 0.16)), (0.2, (0.45, 0.62, 0.18)),
-                    (0.35, (0.75, 0.62, 0.22)), (0.55, (0.93, 0.45, 0.36)),
-                    (0.7, (0.85, 0.19, 0.11)), (1.0, (0.70, 0.06, 0.04)))
-CALYX_RGB = (0.16, 0.36, 0.08)
-CALYX_COS = math.cos(0.62)       # the calyx lies within 0.62 rad of the top
-SPECULAR = 0.35                  # strength of the highlight on the fruit skin
-STEM_RGB = (0.33, 0.48, 0.20)
+#: (ripeness, RGB albedo): skin colours measured on real photographs (README, "Measured fruit
+#: colours"): hue and saturation of the per-stage medians, red chromaticity R/(R+G+B) from
+#: 0.36 (green) to 0.60 (0.7) and 0.71 (1.0)
+RIPENESS_COLOURS = ((0.0, (0.475, 0.60, 0.227)), (0.2, (0.63, 0.69, 0.36)),
+                    (0.35, (0.74, 0.64, 0.31)), (0.55, (0.84, 0.52, 0.31)),
+                    (0.7, (0.80, 0.36, 0.18)), (0.85, (0.74, 0.27, 0.12)),
+                    (1.0, (0.66, 0.18, 0.09)))
+_RIPENESS_STOPS = np.array([r for r, _ in RIPENESS_COLOURS], np.float32)
+_RIPENESS_BGR = np.array([c[::-1] for _, c in RIPENESS_COLOURS], np.float32)
+PALE_SHOULDER_RGB = (0.80, 0.84, 0.58)   # the pale top of mature green fruit
+CALYX_RGB = (0.20, 0.36, 0.11)
+CALYX_COS = math.cos(0.45)       # the painted calyx base lies within 0.45 rad of the top
+SEPAL_RGB = (0.26, 0.42, 0.15)
+SEPAL_RADIUS = (0.0015, 0.0008)  # m: base and tip segment of a sepal
+#: gloss of the skin: (strength, Blinn-Phong exponent) of the sharp highlight and the sheen,
+#: strength and exponent of the soft highlight of the sky/film above, Fresnel rim strength
+SPECULAR = (1.2, 400.0)
+SHEEN = (0.10, 14.0)
+SKY_GLOSS = (0.45, 30.0)
+FRESNEL = 0.35
+SKIN_TEXEL = 0.0012              # m: scale of the fine skin texture (stereo matching needs it)
+SKIN_TEXTURE = 0.11              # its contrast
+WRAP = 0.25                      # wrapped Lambert of the fruit (the light is a large source)
+BOUNCE = 0.3                     # light bounced up from the floor onto the fruit bottoms
+STEM_RGB = (0.40, 0.52, 0.26)
 PEDICEL_RADIUS = 0.0025
 TEX_RES = 0.002                  # m per texel of the canopy textures
 CANOPY_TILE = (1.6, 3.4)         # m: width along the row, height (z from -0.2)
@@ -53,13 +79,26 @@ suction sleeve (drawn per frame; the other fruit are cached with the static scen
 
 
 def fruit_albedo(ripeness):
-    """RGB albedo (0..1) of a fruit of a given ripeness."""
+    """RGB albedo (0..1) of a fruit of a given (uniform) ripeness."""
     r = min(max(float(ripeness), 0.0), 1.0)
     for (r0, c0), (r1, c1) in zip(RIPENESS_COLOURS[:-1], RIPENESS_COLOURS[1:]):
         if r <= r1:
             a = (r - r0) / (r1 - r0)
             return tuple((1 - a) * x0 + a * x1 for x0, x1 in zip(c0, c1))
     return RIPENESS_COLOURS[-1][1]
+
+
+def _albedo_bgr(ripeness):
+    """N x 3 BGR albedo (float32) of an array of local ripeness values."""
+    r = np.clip(ripeness, 0.0, 1.0)
+    return np.stack([np.interp(r, _RIPENESS_STOPS, _RIPENESS_BGR[:, k]) for k in range(3)],
+                    axis=1).astype(np.float32)
+
+
+def mottle_weight(ripeness):
+    """0..1: how unevenly a fruit of this ripeness is coloured (peaks while turning/pink)."""
+    r = float(ripeness)
+    return float(np.interp(r, (0.12, 0.3, 0.55, 0.8, 0.95), (0.0, 1.0, 1.0, 0.35, 0.0)))
 
 
 def fruits_from_scenario(scenario):
@@ -78,6 +117,17 @@ def _noise_texture(rng, shape, blur_sigma):
         m = int(math.ceil(4 * blur_sigma))
         n = cv2.GaussianBlur(np.pad(n, m, mode='wrap'), (0, 0), blur_sigma)[m:-m, m:-m]
     return n / max(float(n.std()), 1e-6)
+
+
+def _skin_texture(rng, shape):
+    """Tomato skin: smooth, with faint blotches and fine light dots (lenticels), which give
+    block matching something to hold on to. Zero mean, unit std, tiles seamlessly."""
+    dots = (rng.uniform(0.0, 1.0, shape) > 0.8).astype(np.float32)
+    m = 4
+    dots = cv2.GaussianBlur(np.pad(dots, m, mode='wrap'), (0, 0), 0.6)[m:-m, m:-m]
+    tex = 0.5 * _noise_texture(rng, shape, 2.0) + dots / max(float(dots.std()), 1e-6)
+    tex -= tex.mean()
+    return tex / max(float(tex.std()), 1e-6)
 
 
 def _wrapped_leaflet(img, centre, length, aspect, angle, colour, width_px):
@@ -110,20 +160,30 @@ class _Plane(object):
 class Renderer(object):
     """Renders a scenario from any camera pose; static scene, dynamic fruit passed per call."""
 
-    def __init__(self, scenario, seed=None, noise_sigma=2.0, blur_sigma=0.6):
+    def __init__(self, scenario, seed=None, noise_sigma=2.0, blur_sigma=None, look=True):
+        """noise_sigma scales the look's sensor noise (2.0 = as documented, 0 = none);
+        blur_sigma (px) overrides the look's optics blur; look=False renders the clean image
+        (no camera look at all)."""
         self.scenario = scenario
         self.seed = int(scenario.seed if seed is None else seed)
         self.noise_sigma = float(noise_sigma)
-        self.blur_sigma = float(blur_sigma)
+        self.blur_sigma = blur_sigma
+        self.use_look = bool(look)
+        self.look_config = getattr(scenario, 'look', None)
+        self._looks = {}
         lt = scenario.lighting
         self.light_dir = np.asarray(lt.direction, dtype=float)
         self.light_bgr = _bgr(lt.colour) * np.float32(lt.intensity)
         # ambient = share of diffuse sky light: it dims with the intensity too
         self.ambient_bgr = _bgr(lt.colour) * np.float32(lt.ambient * lt.intensity)
+        self.bounce_bgr = _bgr(lt.colour) * np.float32(BOUNCE * lt.intensity)
+        # what the glossy skin mirrors from above (sky through the film, lamps)
+        self.sky_bgr = _bgr(lt.colour) * np.float32(0.3 + 0.7 * lt.intensity)
         rng = np.random.default_rng(self.seed)
-        self.fruit_tex = _noise_texture(rng, (128, 256), 0.7)
+        self.fruit_tex = _skin_texture(rng, (128, 256))
         self.leaf_tex = _noise_texture(rng, (128, 128), 1.0)
         self.fruit_phase = rng.uniform(0.0, 1.0, 4096)
+        self.blotch_tex = _noise_texture(rng, (32, 64), 1.5)
         canopy_lit = np.float32((lt.ambient + 0.45) * lt.intensity)
         self._build_atlas(rng, canopy_lit,
                           np.float32((lt.ambient + 0.6) * lt.intensity),
@@ -148,8 +208,9 @@ class Renderer(object):
         canopies 2 x 1: they are clamped in height) so that coordinates taken modulo the tile
         and shifted by half a tile never touch an edge (seamless wrapping with bilinear
         filtering). Slots: (origin, tile size, m/texel)."""
-        tiles = [(self._canopy(rng, canopy_lit), TEX_RES),
-                 (self._canopy(rng, canopy_lit * np.float32(0.9)), TEX_RES),
+        bg = self.look_config.background if self.look_config is not None else 'foliage'
+        tiles = [(self._canopy(rng, canopy_lit, bg), TEX_RES),
+                 (self._canopy(rng, canopy_lit * np.float32(0.9), bg), TEX_RES),
                  (self._floor(rng, floor_lit), 0.004),
                  (self._roof(rng, roof_lit), 0.01)]
         blocks = [np.tile(t, (1, 2, 1) if i < 2 else (2, 2, 1))   # canopy: clamped in height
@@ -171,16 +232,26 @@ class Renderer(object):
         self._atlas_slots = [(o, (t.shape[1], t.shape[0]), res)
                              for o, (t, res) in zip(origins, tiles)]
 
-    def _canopy(self, rng, lit):
-        """Dense foliage of the row behind the fruit: one tile, periodic along the row."""
+    def _canopy(self, rng, lit, background='foliage'):
+        """The row behind the fruit: one tile, periodic along the row. 'foliage': dense
+        leaves; 'mixed' and 'film': leaves (fewer) in front of a translucent plastic film wall
+        with the greenhouse's equipment (growing gutter, grow pipe, drip line, a post, twine
+        and truss clips)."""
         w = int(round(CANOPY_TILE[0] / TEX_RES))
         h = int(round(CANOPY_TILE[1] / TEX_RES))
         img = np.zeros((h, w, 3), np.float32)
         img[:] = (0.05, 0.10, 0.04)
         m = 8
-        # three depth layers of leaflets: far ones darker, smaller and blurred
-        for shade, size, count, blur in ((0.5, 0.6, 500, 2.0), (0.75, 0.8, 500, 1.2),
-                                         (1.0, 1.0, 420, 0.0)):
+        if background == 'foliage':
+            layers = ((0.5, 0.6, 500, 2.0), (0.75, 0.8, 500, 1.2), (1.0, 1.0, 420, 0.0))
+        else:
+            img = self._film(rng, w, h, lit)
+            self._equipment(rng, img)
+            dense = background == 'mixed'
+            layers = ((0.75, 0.8, 260 if dense else 70, 1.2),
+                      (1.0, 1.0, 300 if dense else 120, 0.0))
+        # depth layers of leaflets: far ones darker, smaller and blurred
+        for shade, size, count, blur in layers:
             for _ in range(count):
                 g = rng.uniform(0.3, 0.8) * shade
                 col = (0.08 + 0.22 * g * rng.uniform(0.6, 1.0), 0.14 + 0.45 * g,
@@ -202,12 +273,99 @@ class Renderer(object):
                                0.8)[:, m:-m]
         return self._light(img, lit)
 
+    def _film(self, rng, w, h, lit):
+        """Translucent white plastic film lit from behind: folds and creases, the blurred
+        shadows of plants beyond it, a taped seam. Returned pre-divided by `lit` (the film
+        shines with the daylight behind it, not with the light falling on the canopy)."""
+        x = np.arange(w, dtype=np.float32)
+        fold = np.zeros(w, np.float32)
+        for _ in range(6):               # vertical folds: periodic over the tile width
+            k = int(rng.integers(2, 14))
+            fold += np.float32(rng.uniform(0.01, 0.035)) * \
+                np.sin(2 * np.pi * k * x / w + np.float32(rng.uniform(0, 2 * np.pi)))
+        z = CANOPY_TILE[1] - 0.2 - np.arange(h, dtype=np.float32) * TEX_RES
+        glow = 0.9 + 0.1 * np.clip((z - 0.3) / 2.0, 0.0, 1.0)     # brighter higher up
+        base = np.array((0.84, 0.87, 0.86), np.float32)
+        img = np.ones((h, w, 3), np.float32) * base
+        img *= ((1.0 + fold)[None, :] * glow[:, None])[:, :, None]
+        mottle = cv2.resize(_noise_texture(rng, (h // 8, w // 8), 1.5), (w, h),
+                            interpolation=cv2.INTER_LINEAR)
+        img *= (1.0 + 0.05 * mottle)[:, :, None]
+        # plants beyond the film: soft green-grey shadows
+        shadow = np.zeros((h, w, 3), np.float32)
+        for _ in range(140):
+            g = rng.uniform(0.5, 1.0)
+            _wrapped_leaflet(shadow, (rng.uniform(0, w), rng.uniform(0, h)),
+                             rng.uniform(60, 180), rng.uniform(0.35, 0.5),
+                             rng.uniform(0, 2 * math.pi), (0.45 * g, 0.3 * g, 0.5 * g), w)
+        for _ in range(4):
+            xs = int(rng.uniform(0, w))
+            cv2.line(shadow, (xs, 0), (xs + int(rng.uniform(-40, 40)), h), (0.4, 0.3, 0.45), 8)
+        pad = 48
+        shadow = cv2.GaussianBlur(np.concatenate([shadow[:, -pad:], shadow, shadow[:, :pad]],
+                                                 axis=1), (0, 0), 14.0)[:, pad:-pad]
+        img = np.clip(img - 0.55 * shadow, 0.0, 1.0)
+        for _ in range(10):              # creases: thin bright and dark lines, mostly vertical
+            x0 = rng.uniform(0, w)
+            y0, y1 = rng.uniform(0, h), rng.uniform(0, h)
+            x1 = x0 + rng.uniform(-0.3, 0.3) * abs(y1 - y0)
+            v = float(rng.choice([0.93, 0.7]))
+            cv2.line(img, (int(x0), int(y0)), (int(x1), int(y1)), (v, v, v), 1, cv2.LINE_AA)
+        seam = int((CANOPY_TILE[1] - 0.2 - rng.uniform(1.6, 1.8)) / TEX_RES)
+        img[seam:seam + 12] *= np.float32(0.88)
+        film_lit = np.float32(0.35 + 0.75 * self.scenario.lighting.intensity)
+        return img * (film_lit / max(float(lit), 1e-3))
+
+    def _equipment(self, rng, img):
+        """Greenhouse equipment painted on the row's tile (z from the tile's top edge): the
+        white growing gutter with its black drip line, a galvanised grow pipe, a steel post,
+        and yellow truss clips on twine."""
+        h, w = img.shape[:2]
+
+        def row(z):
+            return int(round((CANOPY_TILE[1] - 0.2 - z) / TEX_RES))
+        # gutter: a white trough, lit lip on top, shaded face, dark shadow below
+        top, bottom = row(0.56), row(0.40)
+        img[top:bottom] = (0.80, 0.81, 0.80)
+        img[top:top + 6] = (0.95, 0.95, 0.94)
+        ramp = np.linspace(1.0, 0.75, bottom - top - 6, dtype=np.float32)[:, None, None]
+        img[top + 6:bottom] *= ramp
+        img[bottom:bottom + 20] *= np.linspace(0.45, 1.0, 20, dtype=np.float32)[:, None, None]
+        cv2.line(img, (0, top - 4), (w - 1, top - 4), (0.04, 0.04, 0.04), 5)   # drip line
+        # grow pipe: a cylinder (shaded across, with a highlight line)
+        c, rad = row(0.66), 7
+        prof = np.cos(np.linspace(-1.3, 1.3, 2 * rad + 1, dtype=np.float32))
+        pipe = (0.45 + 0.4 * prof)[:, None] * np.array((0.72, 0.74, 0.76), np.float32)
+        img[c - rad:c + rad + 1] = pipe[:, None, :]
+        img[c - rad // 2] = (0.95, 0.95, 0.95)
+        # a steel post, shaded like the pipe, from the floor up
+        x0 = int(rng.uniform(0, w - 40))
+        prof = np.cos(np.linspace(-1.2, 1.2, 30, dtype=np.float32))
+        post = (0.4 + 0.35 * prof)[:, None] * np.array((0.62, 0.63, 0.65), np.float32)
+        img[:, x0:x0 + 30] = post[None, :, :]
+        # twine with yellow truss clips
+        for _ in range(5):
+            x = int(rng.uniform(0, w))
+            cv2.line(img, (x, 0), (x + int(rng.uniform(-15, 15)), h), (0.78, 0.76, 0.66), 2,
+                     cv2.LINE_AA)
+            for _ in range(2):
+                y = row(rng.uniform(0.7, 1.5))
+                cv2.rectangle(img, (x - 4, y - 6), (x + 4, y + 6), (0.93, 0.78, 0.22), -1)
+
     def _floor(self, rng, lit):
+        """White ground cover sheet with soil stains and two heating pipes (the cart's rails)
+        along the row, shaded as cylinders."""
         img = np.zeros((500, 500, 3), np.float32)
-        img[:] = (0.62, 0.62, 0.6)            # white-ish ground cover sheet
+        img[:] = (0.66, 0.66, 0.63)            # white-ish ground cover sheet
         img *= (1.0 + 0.08 * _noise_texture(rng, (500, 500), 2.0))[:, :, None]
-        for x in (75, 150):                   # heating pipe rail along the row
-            cv2.line(img, (x, 0), (x, 499), (0.85, 0.85, 0.85), 10)
+        stains = np.clip(_noise_texture(rng, (500, 500), 6.0) - 1.2, 0.0, 2.0)
+        img *= (1.0 - 0.3 * stains)[:, :, None] * np.array((1.0, 0.97, 0.92), np.float32)
+        prof = np.cos(np.linspace(-1.3, 1.3, 13, dtype=np.float32))
+        pipe = (0.35 + 0.55 * prof)[:, None] * np.array((0.8, 0.8, 0.82), np.float32)
+        for x in (75, 150):                   # heating pipe rails along the row
+            img[:, x - 6:x + 7] = pipe[None, :, :]
+            img[:, x - 2] = (0.97, 0.97, 0.97)
+            img[:, x + 7:x + 11] *= np.float32(0.6)      # shadow beside the pipe
         return self._light(img, lit)
 
     def _roof(self, rng, lit):
@@ -227,17 +385,38 @@ class Renderer(object):
         return self._rays[key]
 
     def noise_frames(self, name, width, height, count=4):
+        """Bank of `count` sensor noise frames of the camera (eye) `name` (look.noise_bank)."""
         key = (name, width, height)
         if key not in self._noise:
-            sub = sum(ord(c) * 131 ** i for i, c in enumerate(name)) % 100003
-            rng = np.random.default_rng([self.seed, sub])
-            bank = []
-            for _ in range(count):
-                n = rng.normal(0.0, self.noise_sigma, (height, width, 3)).astype(np.float32)
-                bank.append((np.clip(n, 0, 255).astype(np.uint8),
-                             np.clip(-n, 0, 255).astype(np.uint8)))
-            self._noise[key] = bank
+            self._noise[key] = camera_look.noise_bank(self.seed, name, width, height, count)
         return self._noise[key]
+
+    def camera_look(self, camera):
+        """The CameraLook of a camera model (shared by both eyes of a stereo pair)."""
+        w, h = camera.width + camera.width % 2, camera.height + camera.height % 2
+        key = (camera_look.camera_key(camera), w, h)
+        if key not in self._looks:
+            cfg = self.look_config
+            params = camera_look.look_params(self.seed, key[0],
+                                             cfg.kind if cfg is not None else 'daylight',
+                                             cfg.variation if cfg is not None else 1.0)
+            if self.blur_sigma is not None:
+                params = params._replace(blur_sigma=float(self.blur_sigma))
+            self._looks[key] = camera_look.CameraLook(params, w, h, self.noise_sigma / 2.0)
+        return self._looks[key]
+
+    def _apply_look(self, img, camera, noise_key):
+        look = self.camera_look(camera)
+        h, w = img.shape[:2]
+        if (w, h) != (look.width, look.height):        # odd size: pad for the Bayer mosaic
+            img = cv2.copyMakeBorder(img, 0, look.height - h, 0, look.width - w,
+                                     cv2.BORDER_REPLICATE)
+        noise = None
+        if noise_key is not None and self.noise_sigma > 0:
+            bank = self.noise_frames(noise_key[0], look.width, look.height)
+            noise = bank[int(noise_key[1]) % len(bank)]
+        out = look.apply(img, noise)
+        return out if out.shape[:2] == (h, w) else np.ascontiguousarray(out[:h, :w])
 
     # ------------------------------------------------------------------ main entry
     def render(self, camera, T_map_cam, fruits, noise_key=None, labels=False):
@@ -277,12 +456,8 @@ class Renderer(object):
                 ctx.labels[:] = layer[2]
         self._fruits(ctx, [f for f in fruits if f.moving])
         img = ctx.img
-        if self.blur_sigma > 0:
-            img = cv2.GaussianBlur(img, (3, 3), self.blur_sigma)
-        if noise_key is not None and self.noise_sigma > 0:
-            bank = self.noise_frames(noise_key[0], camera.width, camera.height)
-            pos, neg = bank[int(noise_key[1]) % len(bank)]
-            img = cv2.subtract(cv2.add(img, pos), neg)
+        if self.use_look:
+            img = self._apply_look(img, camera, noise_key)
         if labels:
             return img, ctx.labels
         return img
@@ -291,6 +466,7 @@ class Renderer(object):
         for f in fruits:
             self._sphere(ctx, f)
         for f in fruits:
+            self._sepals(ctx, f)
             top = np.asarray(f.position) + np.array([0.0, 0.0, 0.8 * f.radius])
             if f.attached:
                 self._capsule(ctx, top, f.pedicel_top, PEDICEL_RADIUS, STEM_RGB, LABEL_STEM)
@@ -300,6 +476,33 @@ class Renderer(object):
                 if f.cut_point is not None:
                     self._capsule(ctx, f.cut_point, f.pedicel_top, PEDICEL_RADIUS, STEM_RGB,
                                   LABEL_STEM)
+
+    def _sepals(self, ctx, f):
+        """The calyx's star of thin sepals: each a capsule along the shoulder and a thinner one
+        lifting off toward its tip. Sepal pixels over the fruit keep the fruit's label (the
+        calyx is part of the fruit), the rest are labelled as stem."""
+        c = np.asarray(f.position, dtype=float)
+        r = float(f.radius)
+        n = _sepal_count(f.index)
+        phases = self.fruit_phase
+        phase = phases[int(f.index) % len(phases)]
+        length = 0.012 + 0.45 * r                       # cherry ~1.4 r, large fruit ~0.7 r
+        th0 = 0.1
+        for k in range(n):
+            jitter = phases[(int(f.index) * 7 + k + 11) % len(phases)]
+            phi = 2.0 * math.pi * (k / float(n) - phase) + 0.3 * (jitter - 0.5)
+            th1 = th0 + 0.45 * length / r
+            sag = r * (1.0 - math.cos(0.5 * (th1 - th0)))    # keep the chord above the skin
+            p0 = c + (r + 0.0008) * _polar(th0, phi)
+            p1 = c + (r + 0.0012 + sag) * _polar(th1, phi)
+            # the tip stands off the fruit: out and a little up (reflexed) or down
+            out = np.array([math.cos(phi), math.sin(phi), 0.9 * (jitter - 0.45)])
+            p2 = p1 + (0.5 + 0.2 * jitter) * length * out / np.linalg.norm(out)
+            shade = 0.85 + 0.3 * jitter
+            rgb = tuple(min(v * shade, 1.0) for v in SEPAL_RGB)
+            label = int(f.index) + 1
+            self._capsule(ctx, p0, p1, SEPAL_RADIUS[0], rgb, LABEL_STEM, on_label=label)
+            self._capsule(ctx, p1, p2, SEPAL_RADIUS[1], rgb, LABEL_STEM, on_label=label)
 
     # ------------------------------------------------------------------ background planes
     def _background(self, ctx):
@@ -399,40 +602,73 @@ class Renderer(object):
         # the squared normal components (which sum to 1); shifted per fruit
         th_n, tw_n = self.fruit_tex.shape
         phase = self.fruit_phase[int(f.index) % len(self.fruit_phase)]
-        k = np.float32((th_n - 1) * 0.5)
+        k = np.float32(min((th_n - 1) * 0.5, float(f.radius) / SKIN_TEXEL))
         off = int(phase * tw_n)
         i1, i2, i3 = ((a1 + 1.0) * k).astype(np.int32), ((a2 + 1.0) * k).astype(np.int32), \
             ((cos_t + 1.0) * k).astype(np.int32)
         T = self.fruit_tex
         tex = (a1 * a1 * T[i2, (i3 + off) % tw_n] + a2 * a2 * T[i1, (i3 + off + th_n) % tw_n] +
                cos_t * cos_t * T[i1, (i2 + off + 2 * th_n) % tw_n])
-        albedo = _bgr(fruit_albedo(f.ripeness))
-        green = _bgr(fruit_albedo(0.1))
-        shoulder = (np.float32(0.6 * (1.0 - min(max(f.ripeness, 0.0), 1.0))) *
-                    np.maximum(cos_t, 0.0) ** 2)[:, None]
-        out = (albedo[None, :] * (1 - shoulder) + green[None, :] * shoulder) * \
-            (1.0 + np.float32(0.14) * tex)[:, None]
-        # calyx: five sepals round the top (only the cap can hold sepal pixels)
+        rip = min(max(float(f.ripeness), 0.0), 1.0)
+        mottle = mottle_weight(rip)
+        if mottle > 0:
+            # uneven ripening: riper toward the blossom end (bottom), in blotches
+            B = self.blotch_tex
+            bh, bw = B.shape
+            kb = np.float32((bh - 1) * 0.5)
+            j1, j2, j3 = ((a1 + 1.0) * kb).astype(np.int32), ((a2 + 1.0) * kb).astype(np.int32), \
+                ((cos_t + 1.0) * kb).astype(np.int32)
+            ob = int(phase * bw)
+            blotch = (a1 * a1 * B[j2, (j3 + ob) % bw] + a2 * a2 * B[j1, (j3 + ob + bh) % bw] +
+                      cos_t * cos_t * B[j1, (j2 + ob + 2 * bh) % bw])
+            local = rip + np.float32(mottle) * (np.float32(-0.28) * cos_t +
+                                                np.float32(0.10) * blotch)
+            out = _albedo_bgr(local)
+        else:
+            out = np.repeat(_bgr(fruit_albedo(rip))[None, :], cos_t.shape[0], axis=0)
+        if rip < 0.3:
+            # mature green fruit: pale, yellowish shoulders
+            pale = (np.float32(0.55 * (0.3 - rip) / 0.3) * np.maximum(cos_t, 0.0) ** 2)[:, None]
+            out = out * (1 - pale) + _bgr(PALE_SHOULDER_RGB)[None, :] * pale
+        out *= (1.0 + np.float32(SKIN_TEXTURE) * tex)[:, None]
+        # calyx base: a small star round the top (the sepals themselves are 3-D, see _sepals)
+        n_sep = _sepal_count(f.index)
         cap = np.nonzero(cos_t > CALYX_COS)[0]
         calyx = np.zeros(cos_t.shape, bool)
         if cap.size:
             theta = np.arccos(np.minimum(cos_t[cap], 1.0))
             phi = np.arctan2(a2[cap], a1[cap]) + np.float32(phase * 2 * math.pi)
-            sepal = np.abs(np.cos(2.5 * phi)) ** 0.6
-            calyx[cap] = theta < (0.18 + 0.42 * sepal) * (0.75 + 0.25 * (1.0 - f.ripeness))
+            arm = np.abs(np.cos(0.5 * n_sep * phi)) ** 6
+            calyx[cap] = theta < (0.13 + 0.30 * arm) * (0.8 + 0.2 * (1.0 - rip))
             out[calyx] = _bgr(CALYX_RGB) * (1.0 + 0.15 * tex[calyx, None])
-        # Lambert + Blinn-Phong: n.h = (n.v + n.l) / |v + l|, v = -ray / |ray|
+        # Lambert + gloss: n.h = (n.v + n.l) / |v + l|, v = -ray / |ray|
         l = -ctx.light_cam
         nl = n.dot(l)
         inv_len = 1.0 / np.sqrt(rx * rx + ry * ry + 1.0)
         nv = -(n[:, 0] * rx + n[:, 1] * ry + n[:, 2]) * inv_len
         vl = -(rx * l[0] + ry * l[1] + l[2]) * inv_len
         nh = (nv + nl) / np.sqrt(np.maximum(2.0 + 2.0 * vl, 1e-6))
-        out *= (self.ambient_bgr + self.light_bgr * np.maximum(nl, 0.0)[:, None])
-        shiny = np.nonzero((nh > 0.9) & ~calyx)[0]
-        if shiny.size:
-            out[shiny] += (nh[shiny] ** 80 * np.float32(SPECULAR))[:, None] * \
-                self.light_bgr[None, :]
+        # diffuse: the light (a large, soft source: wrapped Lambert), the ambient, and light
+        # bounced up from the white floor sheet
+        wrap = np.maximum((nl + np.float32(WRAP)) / np.float32(1.0 + WRAP), 0.0)
+        out *= (self.ambient_bgr + self.light_bgr * wrap[:, None] +
+                self.bounce_bgr * np.maximum(-cos_t, 0.0)[:, None])
+        skin = np.nonzero(~calyx)[0]
+        if skin.size:
+            # sharp highlight and broad sheen of the light
+            h = np.maximum(nh[skin], 0.0)
+            spec = np.float32(SHEEN[0]) * h ** np.float32(SHEEN[1])
+            sharp = h > 0.95
+            spec[sharp] += np.float32(SPECULAR[0]) * h[sharp] ** np.float32(SPECULAR[1])
+            # soft highlight of the bright sky/film above, and Fresnel rim (grazing angles)
+            vu = -(rx[skin] * up[0] + ry[skin] * up[1] + up[2]) * inv_len[skin]
+            hs = np.maximum((nv[skin] + cos_t[skin]) /
+                            np.sqrt(np.maximum(2.0 + 2.0 * vu, 1e-6)), 0.0)
+            sky = np.float32(SKY_GLOSS[0]) * hs ** np.float32(SKY_GLOSS[1])
+            rim = np.float32(FRESNEL) * (1.0 - np.clip(nv[skin], 0.0, 1.0)) ** 5 * \
+                (0.5 + 0.5 * cos_t[skin])
+            out[skin] += spec[:, None] * self.light_bgr[None, :] + \
+                (sky + rim)[:, None] * self.sky_bgr[None, :]
         ctx.put(v0 + iy, u0 + ix, zz, out, int(f.index) + 1)
 
     def _leaf(self, ctx, leaf, label):
@@ -498,7 +734,8 @@ class Renderer(object):
         out = col * (self.ambient_bgr + self.light_bgr * np.float32(lit))[None, :]
         ctx.put(v0 + iy, u0 + ix, zz, out, label)
 
-    def _capsule(self, ctx, a_map, b_map, radius, rgb, label):
+    def _capsule(self, ctx, a_map, b_map, radius, rgb, label, on_label=None):
+        """Capsule a-b (map frame). on_label: pixels drawn over that label keep it."""
         A, B = ctx.to_cam(a_map), ctx.to_cam(b_map)
         if A[2] <= NEAR and B[2] <= NEAR:
             return
@@ -555,7 +792,21 @@ class Renderer(object):
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-9)[:, None]
         diff = np.maximum(n.dot(-ctx.light_cam), 0.0)[:, None]
         out = _bgr(rgb)[None, :] * (self.ambient_bgr + self.light_bgr * diff)
+        if on_label is not None and ctx.labels is not None:
+            label = np.where(ctx.labels[v0 + iy, u0 + ix] == on_label, on_label,
+                             label).astype(np.int16)
         ctx.put(v0 + iy, u0 + ix, zz, out, label)
+
+
+def _polar(theta, phi):
+    """Unit vector at polar angle theta from map +z and azimuth phi."""
+    st = math.sin(theta)
+    return np.array([st * math.cos(phi), st * math.sin(phi), math.cos(theta)])
+
+
+def _sepal_count(index):
+    """Sepals of a fruit's calyx: 5, every third fruit 6."""
+    return 6 if int(index) % 3 == 0 else 5
 
 
 def leaf_profile(s):

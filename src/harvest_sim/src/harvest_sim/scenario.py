@@ -8,6 +8,10 @@ z up) holds:
               backdrop_x             x of the canopy behind the fruit (rendered backdrop)
               aisle_x                x of the opposite row (seen when the waist turns round)
     lighting: intensity, ambient, colour [r, g, b], direction [x, y, z] (the way light travels)
+    look:     optional camera/illumination look of the renders (harvest_sim/look.py):
+              kind daylight|led|warm (default daylight), background foliage|mixed|film
+              (what the canopy plane behind the fruit shows; default mixed), variation 0..1
+              (how far the per-camera random look spreads over its documented ranges; 1)
     stems:    [{id, kind: main|truss, radius, points: [[x, y, z], ...]}]
     leaves:   [{id, centre, normal, axis, length, width, colour}]
     fruits:   [{id, position, radius, ripeness, cluster, truss, peduncle, pedicel_top,
@@ -32,12 +36,18 @@ from collections import OrderedDict
 import numpy as np
 import yaml
 
-from harvest_sim import camera_model
+from harvest_sim import camera_model, look as look_model
 
 RIPE_THRESHOLD = 0.7
 #: (stage name, lowest ripeness of the stage)
 STAGES = (('green', 0.0), ('turning', 0.25), ('pink', 0.5), ('red', 0.7))
-RADIUS_RANGE = (0.025, 0.045)
+RADIUS_RANGE = (0.010, 0.050)
+#: fruit radius (m) of the generator's size classes ('mixed': one class per truss)
+SIZE_CLASSES = OrderedDict([('cherry', (0.011, 0.016)), ('round', (0.028, 0.042)),
+                            ('large', (0.040, 0.048))])
+FRUIT_SIZES = tuple(SIZE_CLASSES) + ('mixed',)
+LOOK_KINDS = look_model.KINDS
+BACKGROUNDS = ('foliage', 'mixed', 'film')
 PEDUNCLE_GAP = 0.01
 #: where fruit in view of a picking point sit: map x, z and |y - point| (issue text)
 VIEW_X = (0.35, 0.65)
@@ -72,6 +82,13 @@ class Lighting(object):
         self.colour = np.asarray(colour, dtype=float)
         d = np.asarray(direction, dtype=float)
         self.direction = d / np.linalg.norm(d)
+
+
+class Look(object):
+    """How the cameras render the scene: illumination kind, background, spread of the look."""
+
+    def __init__(self, kind='daylight', background='mixed', variation=1.0):
+        self.kind, self.background, self.variation = kind, background, float(variation)
 
 
 class Track(object):
@@ -131,9 +148,10 @@ def default_peduncle(position, radius):
 
 class Scenario(object):
     def __init__(self, name, track, lighting, fruits, stems=(), leaves=(), seed=0,
-                 description='', generator=None, source='<memory>'):
+                 description='', generator=None, source='<memory>', look=None):
         self.name, self.description, self.seed = name, description, int(seed)
         self.track, self.lighting = track, lighting
+        self.look = look if look is not None else Look()
         self.fruits, self.stems, self.leaves = list(fruits), list(stems), list(leaves)
         self.generator = generator or {}
         self.source = source
@@ -162,6 +180,9 @@ class Scenario(object):
         d['lighting'] = OrderedDict([('intensity', round(lt.intensity, 4)),
                                      ('ambient', round(lt.ambient, 4)),
                                      ('colour', v(lt.colour)), ('direction', v(lt.direction))])
+        d['look'] = OrderedDict([('kind', self.look.kind),
+                                 ('background', self.look.background),
+                                 ('variation', round(self.look.variation, 4))])
         d['stems'] = [OrderedDict([('id', s.id), ('kind', s.kind), ('radius', round(s.radius, 4)),
                                    ('points', [v(p) for p in s.points])]) for s in self.stems]
         d['leaves'] = [OrderedDict([('id', lf.id), ('centre', v(lf.centre)),
@@ -303,7 +324,7 @@ def parse_scenario(data, source='<memory>'):
     if data is None:
         r.fail('', 'file is empty')
     r.mapping(data, '', ('name', 'track', 'lighting', 'fruits'),
-              ('description', 'seed', 'stems', 'leaves', 'generator'))
+              ('description', 'seed', 'stems', 'leaves', 'generator', 'look'))
     name = r.string(data['name'], 'name')
     description = r.string(data.get('description', ''), 'description', allow_empty=True)
     seed = r.integer(data.get('seed', 0), 'seed', 0)
@@ -325,6 +346,7 @@ def parse_scenario(data, source='<memory>'):
                         r.number(lt.get('ambient', 0.35), 'lighting.ambient', 0.0, 1.0),
                         r.vec3(lt['colour'], 'lighting.colour', True, 0.0, 2.0),
                         r.vec3(lt['direction'], 'lighting.direction', True))
+    look = parse_look(r, data.get('look', {}), 'look')
 
     stems, stem_ids = [], {}
     for i, s in enumerate(r.sequence(data.get('stems', []), 'stems')):
@@ -405,7 +427,23 @@ def parse_scenario(data, source='<memory>'):
     gen = data.get('generator', {})
     if not isinstance(gen, dict):
         r.fail('generator', 'must be a mapping')
-    return Scenario(name, track, lighting, fruits, stems, leaves, seed, description, gen, source)
+    return Scenario(name, track, lighting, fruits, stems, leaves, seed, description, gen, source,
+                    look)
+
+
+def parse_look(r, value, path):
+    """Look of an optional `look` mapping (every field optional)."""
+    lk = r.mapping(value if value is not None else {}, path, (),
+                   ('kind', 'background', 'variation'))
+    kind = r.string(lk.get('kind', 'daylight'), path + '.kind')
+    if kind not in LOOK_KINDS:
+        r.fail(path + '.kind', '%r is not one of %s' % (kind, ', '.join(LOOK_KINDS)))
+    background = r.string(lk.get('background', 'mixed'), path + '.background')
+    if background not in BACKGROUNDS:
+        r.fail(path + '.background', '%r is not one of %s'
+               % (background, ', '.join(BACKGROUNDS)))
+    return Look(kind, background, r.number(lk.get('variation', 1.0), path + '.variation', 0.0,
+                                           1.0))
 
 
 # ---------------------------------------------------------------------------- kinematics
@@ -486,6 +524,10 @@ DEFAULT_KNOBS = OrderedDict([
     ('lighting_variation', 0.0),    # 0..1 random change of intensity, colour and direction
     ('backdrop_x', 0.95),
     ('stem_x', 0.75),               # x of the plants' main stems
+    ('fruit_size', 'round'),        # size class: cherry, round, large, or mixed (per truss)
+    ('look_kind', 'daylight'),      # camera look: daylight, led (plant factory) or warm
+    ('background', 'mixed'),        # behind the canopy: foliage, mixed or film
+    ('look_variation', 1.0),        # 0..1 spread of the per-camera look over its ranges
 ])
 
 #: the shipped scenarios (scenarios/NAME.yaml are generated from these)
@@ -507,6 +549,7 @@ PRESETS = OrderedDict([
     ('low_light', dict(seed=7, picking_points=3, fruit_per_view=[3, 4], ripe_fraction=0.6,
                        intensity=0.35, ambient=0.25, light_colour=[1.0, 0.85, 0.7],
                        light_direction=[0.2, 0.6, -0.6], unreachable_fraction=0.1,
+                       look_kind='warm',
                        description='Dim, warm, low-angle light (evening): colour segmentation '
                                    'under variable illumination.')),
     ('empty_point', dict(seed=9, picking_points=3, fruit_per_view=[3, 0, 2], ripe_per_view=2,
@@ -523,6 +566,21 @@ PRESETS = OrderedDict([
                       occlusion=0.25, unreachable_fraction=0.15, lighting_variation=0.3,
                       borderline_fraction=0.1,
                       description='A long row of 22 picking points for continuous operation.')),
+    ('plant_factory_led', dict(seed=23, picking_points=3, fruit_per_view=[3, 5],
+                               ripe_fraction=0.55, cluster_density=0.6, occlusion=0.2,
+                               unreachable_fraction=0.1, fruit_size='large', look_kind='led',
+                               background='film', ambient=0.45, light_colour=[1.0, 1.0, 1.0],
+                               light_direction=[0.3, 0.1, -1.0],
+                               description='Plant factory under red/blue LED light (pink-magenta '
+                                           'cast), white film walls, large round tomatoes.')),
+    ('greenhouse_daylight', dict(seed=53, picking_points=3, fruit_per_view=[4, 7],
+                                 ripe_fraction=0.5, cluster_density=0.8, occlusion=0.2,
+                                 unreachable_fraction=0.1, borderline_fraction=0.1,
+                                 fruit_size='mixed', look_kind='daylight', background='film',
+                                 intensity=1.1, ambient=0.5, light_colour=[0.95, 0.98, 1.0],
+                                 light_direction=[0.2, 0.3, -1.0],
+                                 description='Greenhouse in diffuse daylight behind plastic film: '
+                                             'cherry, round and large tomatoes on trusses.')),
 ])
 
 
@@ -587,8 +645,10 @@ class _Generator(object):
         lighting = self._lighting()
         knobs = OrderedDict((key, list(v) if isinstance(v, tuple) else v)
                             for key, v in k.items() if key not in ('name', 'description'))
+        look = Look(k['look_kind'], k['background'], k['look_variation'])
         return Scenario(k['name'], Track(points, k['backdrop_x']), lighting, self.fruits,
-                        self.stems, self.leaves, int(k['seed']), k['description'], knobs)
+                        self.stems, self.leaves, int(k['seed']), k['description'], knobs,
+                        look=look)
 
     def _plants(self, points):
         rng = self.rng
@@ -628,13 +688,15 @@ class _Generator(object):
         placed = 0
         cluster_no = 0
         while placed < n:
-            size = min(per_cluster, n - placed)
+            size_class = self._size_class()
+            # cherry tomatoes hang in long trusses: twice the fruit per truss
+            size = min(per_cluster * (2 if size_class == 'cherry' else 1), n - placed)
             cluster_id = 'c%02d_%d' % (index, cluster_no)
             members = []
             for j in range(size):
                 ripe = ripe_flags[placed + j]
                 want_reach = bool(rng.random() >= k['unreachable_fraction'])
-                radius = round(float(rng.uniform(0.028, 0.042)), 4)
+                radius = round(float(rng.uniform(*SIZE_CLASSES[size_class])), 4)
                 pos = self._place(y, eyes, radius, members, gap, want_reach)
                 fid = 'f%02d_%d' % (index, placed + j)
                 members.append(Fruit(fid, pos, radius, self._ripeness(ripe), cluster_id,
@@ -647,6 +709,13 @@ class _Generator(object):
             self.fruits.extend(members)
             placed += size
             cluster_no += 1
+
+    def _size_class(self):
+        """Size class of the next truss (draws from the generator only for 'mixed')."""
+        size = self.k['fruit_size']
+        if size == 'mixed':
+            return list(SIZE_CLASSES)[int(self.rng.integers(len(SIZE_CLASSES)))]
+        return size
 
     def _place(self, y, eyes, radius, members, gap, want_reach):
         rng = self.rng
@@ -754,6 +823,9 @@ def generate(knobs, geom):
     round-tripped through its YAML form, so it equals what load_scenario reads back.
     """
     full = knobs_for(**{key: v for key, v in knobs.items()})
+    if full['fruit_size'] not in FRUIT_SIZES:
+        raise ValueError('fruit_size must be one of %s, got %r'
+                         % (', '.join(FRUIT_SIZES), full['fruit_size']))
     scenario = _Generator(full, geom).run()
     data = yaml.load(dump_scenario(scenario), Loader=yaml.SafeLoader)
     scenario = parse_scenario(data, '<generated %s>' % full['name'])
