@@ -85,6 +85,21 @@ def test_generator_is_deterministic_and_follows_knobs():
         scn.knobs_for(None, fruits_per_view=3)
 
 
+def test_look_and_size_classes_of_the_new_presets():
+    s = load('plant_factory_led')
+    assert (s.look.kind, s.look.background) == ('led', 'film')
+    assert all(f.radius >= scn.SIZE_CLASSES['large'][0] for f in s.fruits)
+    s = load('greenhouse_daylight')
+    assert (s.look.kind, s.look.background) == ('daylight', 'film')
+    sizes = set(c for f in s.fruits for c, (lo, hi) in scn.SIZE_CLASSES.items()
+                if lo <= f.radius <= hi)
+    assert {'cherry', 'large'} <= sizes
+    assert load('low_light').look.kind == 'warm'
+    assert load('three_targets').look.kind == 'daylight'
+    with pytest.raises(ValueError, match='fruit_size'):
+        scn.generate(scn.knobs_for(None, fruit_size='huge'), GEOM)
+
+
 def test_ripeness_stages():
     assert [scn.ripeness_stage(r) for r in (0.0, 0.24, 0.25, 0.49, 0.5, 0.69, 0.7, 1.0)] == \
         ['green', 'green', 'turning', 'turning', 'pink', 'pink', 'red', 'red']
@@ -144,6 +159,11 @@ MALFORMED = [
      'fruits[1].position', 'overlaps'),
     (_del(['lighting']), 'lighting', 'missing required field'),
     (_set(['fruits'], {'id': 'a'}), 'fruits', 'must be a list'),
+    (_set(['look'], {'kind': 'sodium'}), 'look.kind', 'not one of daylight, led, warm'),
+    (_set(['look'], {'background': 'sky'}), 'look.background', 'not one of'),
+    (_set(['look'], {'variation': 2.0}), 'look.variation', 'outside'),
+    (_set(['look'], {'glare': 1}), 'look.glare', 'unknown field'),
+    (_set(['look'], 'led'), 'look', 'must be a mapping'),
 ]
 
 

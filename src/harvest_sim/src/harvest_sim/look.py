@@ -43,7 +43,7 @@ KINDS = ('daylight', 'led', 'warm')
 KIND_RANGES = OrderedDict([
     ('daylight', OrderedDict([('wb_r', (0.90, 1.04)), ('wb_b', (0.98, 1.14)),
                               ('exposure_ev', (-0.60, 0.20)), ('flare', (0.0, 0.035))])),
-    ('led', OrderedDict([('wb_r', (1.40, 1.75)), ('wb_b', (1.20, 1.55)),
+    ('led', OrderedDict([('wb_r', (1.80, 2.40)), ('wb_b', (1.60, 2.20)),
                          ('exposure_ev', (-0.50, 0.20)), ('flare', (0.0, 0.02))])),
     ('warm', OrderedDict([('wb_r', (1.06, 1.20)), ('wb_b', (0.72, 0.88)),
                           ('exposure_ev', (-0.40, 0.30)), ('flare', (0.0, 0.02))])),
@@ -128,8 +128,10 @@ def tone(signal, params):
 
 
 def channel_gains(params):
-    """(r, g, b) total gain of each channel: cast x exposure."""
-    k = 2.0 ** params.exposure_ev
+    """(r, g, b) total gain of each channel: the cast (normalised to unit luminance, so that it
+    changes the colour and not the brightness) times the exposure."""
+    r, g, b = params.wb
+    k = 2.0 ** params.exposure_ev / (0.299 * r + 0.587 * g + 0.114 * b)
     return tuple(w * k for w in params.wb)
 
 

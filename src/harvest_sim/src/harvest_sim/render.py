@@ -43,7 +43,7 @@ NEAR = 0.01
 #: 0.36 (green) to 0.60 (0.7) and 0.71 (1.0)
 RIPENESS_COLOURS = ((0.0, (0.475, 0.60, 0.227)), (0.2, (0.63, 0.69, 0.36)),
                     (0.35, (0.74, 0.64, 0.31)), (0.55, (0.84, 0.52, 0.31)),
-                    (0.7, (0.80, 0.36, 0.18)), (0.85, (0.74, 0.27, 0.12)),
+                    (0.7, (0.80, 0.38, 0.18)), (0.85, (0.74, 0.30, 0.12)),
                     (1.0, (0.66, 0.18, 0.09)))
 _RIPENESS_STOPS = np.array([r for r, _ in RIPENESS_COLOURS], np.float32)
 _RIPENESS_BGR = np.array([c[::-1] for _, c in RIPENESS_COLOURS], np.float32)
@@ -239,38 +239,49 @@ class Renderer(object):
         and truss clips)."""
         w = int(round(CANOPY_TILE[0] / TEX_RES))
         h = int(round(CANOPY_TILE[1] / TEX_RES))
-        img = np.zeros((h, w, 3), np.float32)
-        img[:] = (0.05, 0.10, 0.04)
         m = 8
+
+        def wrap_blur(a, sigma):
+            return cv2.GaussianBlur(np.concatenate([a[:, -m:], a, a[:, :m]], axis=1), (0, 0),
+                                    sigma)[:, m:-m]
         if background == 'foliage':
+            img = np.zeros((h, w, 3), np.float32)
+            img[:] = (0.05, 0.10, 0.04)
             layers = ((0.5, 0.6, 500, 2.0), (0.75, 0.8, 500, 1.2), (1.0, 1.0, 420, 0.0))
+            light_leaves, bare = 0.0, 0.12
         else:
             img = self._film(rng, w, h, lit)
             self._equipment(rng, img)
             dense = background == 'mixed'
             layers = ((0.75, 0.8, 260 if dense else 70, 1.2),
                       (1.0, 1.0, 300 if dense else 120, 0.0))
-        # depth layers of leaflets: far ones darker, smaller and blurred
+            light_leaves, bare = 1.0, 0.02         # leaves against the film are lighter
+        cover = np.zeros((h, w), np.float32)
+        # depth layers of leaflets (colour + coverage): far ones darker, smaller and blurred
         for shade, size, count, blur in layers:
+            layer = np.zeros((h, w, 4), np.float32)
             for _ in range(count):
-                g = rng.uniform(0.3, 0.8) * shade
-                col = (0.08 + 0.22 * g * rng.uniform(0.6, 1.0), 0.14 + 0.45 * g,
-                       0.04 + 0.12 * g * rng.uniform(0.5, 1.0))
-                _wrapped_leaflet(img, (rng.uniform(0, w), rng.uniform(0, h)),
+                g = rng.uniform(0.3 + 0.2 * light_leaves, 0.8 + 0.2 * light_leaves) * shade
+                col = (0.08 + (0.22 + 0.1 * light_leaves) * g * rng.uniform(0.6, 1.0),
+                       0.14 + 0.45 * g, 0.04 + (0.12 + 0.08 * light_leaves) * g *
+                       rng.uniform(0.5, 1.0), 1.0)
+                _wrapped_leaflet(layer, (rng.uniform(0, w), rng.uniform(0, h)),
                                  rng.uniform(30, 110) * size, rng.uniform(0.35, 0.5),
                                  rng.uniform(0, 2 * math.pi), col, w)
             if shade == 0.75:
                 for _ in range(6):       # support twine and plant stems between the layers
                     x = int(rng.uniform(0, w))
-                    cv2.line(img, (x, 0), (x + int(rng.uniform(-20, 20)), h), (0.7, 0.68, 0.56),
-                             2, cv2.LINE_AA)
+                    cv2.line(layer, (x, 0), (x + int(rng.uniform(-20, 20)), h),
+                             (0.7, 0.68, 0.56, 1.0), 2, cv2.LINE_AA)
+            alpha = layer[:, :, 3:]
+            img = img * (1.0 - alpha) + layer[:, :, :3]      # leaves drawn opaque on black
+            cover = cover * (1.0 - alpha[:, :, 0]) + alpha[:, :, 0]
             if blur > 0:
-                img = cv2.GaussianBlur(np.concatenate([img[:, -m:], img, img[:, :m]], axis=1),
-                                       (0, 0), blur)[:, m:-m]
+                img = wrap_blur(img, blur)
+        # fine texture on the leaves (block matching), only a trace of it on film and steel
         fine = _noise_texture(rng, (h, w), 1.0)
-        img *= (1.0 + 0.12 * fine)[:, :, None]
-        img = cv2.GaussianBlur(np.concatenate([img[:, -m:], img, img[:, :m]], axis=1), (0, 0),
-                               0.8)[:, m:-m]
+        img *= (1.0 + (bare + (0.12 - bare) * cover) * fine)[:, :, None]
+        img = wrap_blur(img, 0.8)
         return self._light(img, lit)
 
     def _film(self, rng, w, h, lit):
@@ -621,8 +632,8 @@ class Renderer(object):
             ob = int(phase * bw)
             blotch = (a1 * a1 * B[j2, (j3 + ob) % bw] + a2 * a2 * B[j1, (j3 + ob + bh) % bw] +
                       cos_t * cos_t * B[j1, (j2 + ob + 2 * bh) % bw])
-            local = rip + np.float32(mottle) * (np.float32(-0.28) * cos_t +
-                                                np.float32(0.10) * blotch)
+            local = rip + np.float32(mottle) * (np.float32(-0.16) * cos_t +
+                                                np.float32(0.05) * blotch)
             out = _albedo_bgr(local)
         else:
             out = np.repeat(_bgr(fruit_albedo(rip))[None, :], cos_t.shape[0], axis=0)
