@@ -160,22 +160,26 @@ class Detection(object):
 
 
 def fit_circle(xs, ys):
-    """Algebraic least-squares circle (Kasa). Returns (cx, cy, r) or None."""
-    if len(xs) < 5:
+    """Algebraic least-squares circle (Kasa), solved in centred coordinates from its 2 x 2
+    normal equations. Returns (cx, cy, r) or None (fewer than 5 points, or collinear)."""
+    n = len(xs)
+    if n < 5:
         return None
-    a = np.column_stack([xs, ys, np.ones(len(xs))])
-    b = -(xs * xs + ys * ys)
-    try:
-        sol, _, rank, _ = np.linalg.lstsq(a, b, rcond=None)
-    except np.linalg.LinAlgError:
+    mx, my = float(np.mean(xs)), float(np.mean(ys))
+    u = np.asarray(xs, dtype=np.float64) - mx
+    v = np.asarray(ys, dtype=np.float64) - my
+    uu, vv, uv = float(u.dot(u)), float(v.dot(v)), float(u.dot(v))
+    det = uu * vv - uv * uv
+    if det <= 1e-9 * max(uu * vv, 1e-12):
         return None
-    if rank < 3:
-        return None
-    cx, cy = -sol[0] / 2.0, -sol[1] / 2.0
-    r2 = cx * cx + cy * cy - sol[2]
+    w = u * u + v * v
+    bu, bv = 0.5 * float(u.dot(w)), 0.5 * float(v.dot(w))
+    uc = (bu * vv - bv * uv) / det
+    vc = (bv * uu - bu * uv) / det
+    r2 = uc * uc + vc * vc + (uu + vv) / n
     if r2 <= 0:
         return None
-    return cx, cy, math.sqrt(r2)
+    return uc + mx, vc + my, math.sqrt(r2)
 
 
 def robust_fit_circle(xs, ys, iterations=2, keep=0.8):
@@ -200,6 +204,17 @@ def _support(circle, xs, ys, tol=1.0, rel=0.03):
     return int(np.count_nonzero(np.abs(np.hypot(xs - cx, ys - cy) - r) <= tol + rel * r))
 
 
+_TRIPLES = {}
+
+
+def _triples(seed, trials):
+    """trials x 3 uniform numbers in [0, 1) drawn once per (seed, trials): point triples."""
+    key = (seed, trials)
+    if key not in _TRIPLES:
+        _TRIPLES[key] = np.random.default_rng(seed).random((trials, 3))
+    return _TRIPLES[key]
+
+
 def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     """Circle that the largest part of an outline follows (RANSAC over point triples, then a
     Kasa refit on its inliers), with r in [r_min, r_max]; None when none is found.
@@ -211,8 +226,7 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     n = len(xs)
     if n < 8:
         return None
-    rng = np.random.default_rng(seed)
-    idx = rng.integers(0, n, size=(trials, 3))
+    idx = np.minimum((_triples(seed, trials) * n).astype(np.int64), n - 1)
     x1, x2, x3 = xs[idx[:, 0]], xs[idx[:, 1]], xs[idx[:, 2]]
     y1, y2, y3 = ys[idx[:, 0]], ys[idx[:, 1]], ys[idx[:, 2]]
     d = 2.0 * (x1 * (y2 - y3) + x2 * (y3 - y1) + x3 * (y1 - y2))
