@@ -50,7 +50,7 @@ _RIPENESS_BGR = np.array([c[::-1] for _, c in RIPENESS_COLOURS], np.float32)
 PALE_SHOULDER_RGB = (0.80, 0.84, 0.58)   # the pale top of mature green fruit
 CALYX_RGB = (0.20, 0.36, 0.11)
 CALYX_COS = math.cos(0.45)       # the painted calyx base lies within 0.45 rad of the top
-SEPAL_RGB = (0.26, 0.42, 0.15)
+SEPAL_RGB = (0.17, 0.31, 0.09)
 SEPAL_RADIUS = (0.0015, 0.0008)  # m: base and tip segment of a sepal
 #: gloss of the skin: (strength, Blinn-Phong exponent) of the sharp highlight and the sheen,
 #: strength and exponent of the soft highlight of the sky/film above, Fresnel rim strength
@@ -489,31 +489,75 @@ class Renderer(object):
                                   LABEL_STEM)
 
     def _sepals(self, ctx, f):
-        """The calyx's star of thin sepals: each a capsule along the shoulder and a thinner one
-        lifting off toward its tip. Sepal pixels over the fruit keep the fruit's label (the
-        calyx is part of the fruit), the rest are labelled as stem."""
+        """The calyx's star of thin sepals: each follows the shoulder from the pedicel, then
+        its tip stands off the fruit (out, a little up or down). Each sepal is a polyline of
+        short tapered segments rasterised as thick lines, each with the depth of its nearer
+        end, front to back; sepal pixels over the fruit keep the fruit's label (the calyx is
+        part of the fruit), the others are labelled as stem."""
         c = np.asarray(f.position, dtype=float)
         r = float(f.radius)
         n = _sepal_count(f.index)
         phases = self.fruit_phase
         phase = phases[int(f.index) % len(phases)]
         length = 0.012 + 0.45 * r                       # cherry ~1.4 r, large fruit ~0.7 r
-        th0 = 0.1
-        for k in range(n):
-            jitter = phases[(int(f.index) * 7 + k + 11) % len(phases)]
-            phi = 2.0 * math.pi * (k / float(n) - phase) + 0.3 * (jitter - 0.5)
-            th1 = th0 + 0.45 * length / r
-            sag = r * (1.0 - math.cos(0.5 * (th1 - th0)))    # keep the chord above the skin
-            p0 = c + (r + 0.0008) * _polar(th0, phi)
-            p1 = c + (r + 0.0012 + sag) * _polar(th1, phi)
-            # the tip stands off the fruit: out and a little up (reflexed) or down
-            out = np.array([math.cos(phi), math.sin(phi), 0.9 * (jitter - 0.45)])
-            p2 = p1 + (0.5 + 0.2 * jitter) * length * out / np.linalg.norm(out)
-            shade = 0.85 + 0.3 * jitter
-            rgb = tuple(min(v * shade, 1.0) for v in SEPAL_RGB)
-            label = int(f.index) + 1
-            self._capsule(ctx, p0, p1, SEPAL_RADIUS[0], rgb, LABEL_STEM, on_label=label)
-            self._capsule(ctx, p1, p2, SEPAL_RADIUS[1], rgb, LABEL_STEM, on_label=label)
+        th0, th1 = 0.1, 0.1 + 0.45 * length / r
+        jitter = phases[(int(f.index) * 7 + np.arange(n) + 11) % len(phases)]
+        phi = 2.0 * np.pi * (np.arange(n) / float(n) - phase) + 0.3 * (jitter - 0.5)
+        th = np.linspace(th0, th1, 5)
+        cp, sp = np.cos(phi)[:, None], np.sin(phi)[:, None]
+        arc = c + (r + 0.0012) * np.stack([np.sin(th) * cp, np.sin(th) * sp,
+                                           np.cos(th) + 0.0 * cp], axis=2)      # n x 5 x 3
+        out = np.stack([np.cos(phi), np.sin(phi), 0.9 * (jitter - 0.45)], axis=1)
+        out *= ((0.5 + 0.2 * jitter) * length / np.linalg.norm(out, axis=1))[:, None]
+        line = np.concatenate([arc, arc[:, -1:] + 0.5 * out[:, None], arc[:, -1:] +
+                               out[:, None]], axis=1)                             # n x 7 x 3
+        m = line.shape[1] - 1
+        pts = np.stack([line[:, :-1], line[:, 1:]], axis=2).reshape(-1, 3)      # segment ends
+        radii = np.tile(SEPAL_RADIUS[0] + (SEPAL_RADIUS[1] - SEPAL_RADIUS[0]) *
+                        np.arange(m) / float(m - 1), n)
+        # lit like the fruit surface under it: normal ~ the radial direction
+        nrm = line[:, :-1] - c
+        nrm = (nrm / np.linalg.norm(nrm, axis=2)[:, :, None]).reshape(-1, 3)
+        lam = np.maximum(ctx.R.T.dot(nrm.T).T.dot(-ctx.light_cam), 0.0)
+        shade = np.repeat(0.85 + 0.3 * jitter, m)
+        P = ctx.R.T.dot((pts - ctx.t).T).T                               # camera frame
+        if P[:, 2].min() <= NEAR + SEPAL_RADIUS[0]:
+            return
+        uv = ctx.camera.project(P)
+        z = P[:, 2].reshape(-1, 2)
+        rad_px = ctx.camera.fx * np.array(radii) / z.min(axis=1)
+        pad = int(math.ceil(rad_px.max())) + 2
+        box = ctx.clip_box(int(math.floor(uv[:, 0].min())) - pad,
+                           int(math.ceil(uv[:, 0].max())) + pad + 1,
+                           int(math.floor(uv[:, 1].min())) - pad,
+                           int(math.ceil(uv[:, 1].max())) + pad + 1)
+        if box is None:
+            return
+        u0, u1, v0, v1 = box
+        patch = np.zeros((v1 - v0, u1 - u0), np.int16)
+        depth = z.min(axis=1) - np.array(radii)
+        ends = np.round((uv - [u0, v0]) * 16).astype(np.int64).reshape(-1, 2, 2)
+        for k in np.argsort(-depth):                      # far first: nearer ones overwrite
+            a, b = ends[k]
+            cv2.line(patch, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), int(k) + 1,
+                     max(1, int(round(2.0 * rad_px[k]))), cv2.LINE_8, 4)
+        iy, ix = np.nonzero(patch)
+        if iy.size == 0:
+            return
+        seg = patch[iy, ix] - 1
+        zz = depth[seg].astype(np.float32)
+        ok = zz < ctx.zbuf[v0 + iy, u0 + ix]
+        iy, ix, seg, zz = iy[ok], ix[ok], seg[ok], zz[ok]
+        if iy.size == 0:
+            return
+        lit = (shade[:, None] * (self.ambient_bgr[None, :] + self.light_bgr[None, :] *
+                                 lam[:, None])).astype(np.float32)
+        out = _bgr(SEPAL_RGB)[None, :] * lit[seg]
+        label = LABEL_STEM
+        if ctx.labels is not None:
+            fl = int(f.index) + 1
+            label = np.where(ctx.labels[v0 + iy, u0 + ix] == fl, fl, LABEL_STEM).astype(np.int16)
+        ctx.put(v0 + iy, u0 + ix, zz, out, label)
 
     # ------------------------------------------------------------------ background planes
     def _background(self, ctx):
@@ -615,11 +659,17 @@ class Renderer(object):
         phase = self.fruit_phase[int(f.index) % len(self.fruit_phase)]
         k = np.float32(min((th_n - 1) * 0.5, float(f.radius) / SKIN_TEXEL))
         off = int(phase * tw_n)
-        i1, i2, i3 = ((a1 + 1.0) * k).astype(np.int32), ((a2 + 1.0) * k).astype(np.int32), \
-            ((cos_t + 1.0) * k).astype(np.int32)
+        npx = a1.shape[0]
+        rows = -(-npx // 512)                # remap wants 2-D maps below 32767 a side
+        f1, f2, f3 = [np.resize(((v + 1.0) * k).astype(np.float32), rows * 512).reshape(rows, 512)
+                      for v in (a1, a2, cos_t)]
         T = self.fruit_tex
-        tex = (a1 * a1 * T[i2, (i3 + off) % tw_n] + a2 * a2 * T[i1, (i3 + off + th_n) % tw_n] +
-               cos_t * cos_t * T[i1, (i2 + off + 2 * th_n) % tw_n])
+
+        def sample(col, row):               # bilinear, wrapping round the texture
+            return cv2.remap(T, col, row, cv2.INTER_LINEAR,
+                             borderMode=cv2.BORDER_WRAP).reshape(-1)[:npx]
+        tex = (a1 * a1 * sample(f3 + off, f2) + a2 * a2 * sample(f3 + (off + th_n), f1) +
+               cos_t * cos_t * sample(f2 + (off + 2 * th_n), f1))
         rip = min(max(float(f.ripeness), 0.0), 1.0)
         mottle = mottle_weight(rip)
         if mottle > 0:
@@ -745,8 +795,7 @@ class Renderer(object):
         out = col * (self.ambient_bgr + self.light_bgr * np.float32(lit))[None, :]
         ctx.put(v0 + iy, u0 + ix, zz, out, label)
 
-    def _capsule(self, ctx, a_map, b_map, radius, rgb, label, on_label=None):
-        """Capsule a-b (map frame). on_label: pixels drawn over that label keep it."""
+    def _capsule(self, ctx, a_map, b_map, radius, rgb, label):
         A, B = ctx.to_cam(a_map), ctx.to_cam(b_map)
         if A[2] <= NEAR and B[2] <= NEAR:
             return
@@ -803,9 +852,6 @@ class Renderer(object):
         n /= np.maximum(np.linalg.norm(n, axis=1), 1e-9)[:, None]
         diff = np.maximum(n.dot(-ctx.light_cam), 0.0)[:, None]
         out = _bgr(rgb)[None, :] * (self.ambient_bgr + self.light_bgr * diff)
-        if on_label is not None and ctx.labels is not None:
-            label = np.where(ctx.labels[v0 + iy, u0 + ix] == on_label, on_label,
-                             label).astype(np.int16)
         ctx.put(v0 + iy, u0 + ix, zz, out, label)
 
 
