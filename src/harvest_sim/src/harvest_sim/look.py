@@ -2,19 +2,24 @@
 
 The renderer (render.py) produces a clean image in display (sRGB-like) encoding, as a perfectly
 white-balanced, correctly exposed camera would see the scene. A CameraLook turns it into what a
-real colour camera delivers, in the order a camera does it:
+real colour camera delivers, in this order (a camera blurs before its sensor; here the blur acts
+on the demosaiced luma, where it costs a third):
 
-1. optics: Gaussian blur (defocus, lens), vignetting (light falls off toward the corners);
-2. illumination and camera colour: per-channel gains = the colour cast the illuminant leaves
-   after an imperfect auto white balance, times the exposure (2**EV); then the tone curve:
-   gamma on linear light, an S-shaped contrast curve and a flare (lifted blacks);
-3. sensor: a Bayer colour filter mosaic (one colour per pixel) with signal-dependent noise:
-   variance = gain * shot * signal + (gain * read)**2 in linear light, carried through the
-   tone curve, so shadows are noisier than highlights and clipped highlights are flat;
-4. processing: demosaicing (luma by bilinear interpolation of the mosaic, colour from the
-   2 x 2 Bayer cells at half resolution: zipper and false-colour fringes at edges) and JPEG
-   (the luma really goes through JPEG at the camera's quality: 8 x 8 blocking, ringing; the
-   colour is subsampled 2 x 2 as in JPEG 4:2:0).
+1. illumination and camera colour, per Bayer site: the channel gain = the colour cast the
+   illuminant leaves after an imperfect auto white balance (normalised to unit luminance)
+   times the exposure (2**EV), on linear light; then the tone curve: gamma on linear light,
+   an S-shaped contrast curve and a flare (lifted blacks). One LUT per channel.
+2. sensor: a Bayer colour filter mosaic (one colour per pixel, pattern drawn per camera) with
+   signal-dependent noise: variance = gain * shot * signal + (gain * read)**2 in linear light,
+   carried through the tone curve, so shadows are noisier than highlights and clipped
+   highlights are flat (one sigma LUT per channel, a bank of unit-normal noise frames);
+3. demosaicing: luma by bilinear interpolation of the mosaic (zipper at edges), colour from
+   the 2 x 2 Bayer cells at half resolution (false-colour fringes, colour bleeding as JPEG's
+   4:2:0 subsampling);
+4. optics on the luma: Gaussian blur (lens, slight defocus; the noise is raised beforehand so
+   that its final std is the sensor's) and vignetting (light falls off toward the corners);
+5. JPEG: the luma really goes through JPEG at the camera's quality (8 x 8 blocking, ringing,
+   lost fine detail).
 
 Geometry is untouched: every step is centred (no shift, no distortion), so a fruit still
 renders where the pinhole model puts it.
