@@ -50,7 +50,7 @@ _RIPENESS_BGR = np.array([c[::-1] for _, c in RIPENESS_COLOURS], np.float32)
 PALE_SHOULDER_RGB = (0.80, 0.84, 0.58)   # the pale top of mature green fruit
 CALYX_RGB = (0.20, 0.36, 0.11)
 CALYX_COS = math.cos(0.45)       # the painted calyx base lies within 0.45 rad of the top
-SEPAL_RGB = (0.17, 0.31, 0.09)
+SEPAL_RGB = (0.20, 0.35, 0.11)
 SEPAL_RADIUS = (0.0015, 0.0008)  # m: base and tip segment of a sepal
 #: gloss of the skin: (strength, Blinn-Phong exponent) of the sharp highlight and the sheen,
 #: strength and exponent of the soft highlight of the sky/film above, Fresnel rim strength
@@ -60,10 +60,13 @@ SKY_GLOSS = (0.45, 30.0)
 FRESNEL = 0.35
 SKIN_TEXEL = 0.0012              # m: scale of the fine skin texture (stereo matching needs it)
 SKIN_TEXTURE = 0.11              # its contrast
+#: lobes of large fruit: from radius [0] (none) to [1] (full), tilt [2], lobes round [3]
+RIBS = (0.034, 0.045, 0.22, 6.0)
 WRAP = 0.25                      # wrapped Lambert of the fruit (the light is a large source)
 BOUNCE = 0.3                     # light bounced up from the floor onto the fruit bottoms
-STEM_RGB = (0.40, 0.52, 0.26)
+STEM_RGB = (0.42, 0.55, 0.28)
 PEDICEL_RADIUS = 0.0025
+PEDICEL_KNEE = 0.02              # m above the fruit top: the pedicel's knuckle
 TEX_RES = 0.002                  # m per texel of the canopy textures
 CANOPY_TILE = (1.6, 3.4)         # m: width along the row, height (z from -0.2)
 LABEL_LEAF, LABEL_STEM = 1000, 2000
@@ -480,6 +483,11 @@ class Renderer(object):
             self._sepals(ctx, f)
             top = np.asarray(f.position) + np.array([0.0, 0.0, 0.8 * f.radius])
             if f.attached:
+                # the pedicel rises from the calyx to its knuckle, then bends to the truss
+                knee = np.asarray(f.position) + np.array([0.0, 0.0, f.radius + PEDICEL_KNEE])
+                if f.pedicel_top[2] > knee[2] + 0.005:
+                    self._capsule(ctx, top, knee, PEDICEL_RADIUS, STEM_RGB, LABEL_STEM)
+                    top = knee
                 self._capsule(ctx, top, f.pedicel_top, PEDICEL_RADIUS, STEM_RGB, LABEL_STEM)
             else:
                 stub = np.asarray(f.position) + np.array([0.0, 0.0, f.radius + 0.006])
@@ -702,6 +710,15 @@ class Renderer(object):
             arm = np.abs(np.cos(0.5 * n_sep * phi)) ** 6
             calyx[cap] = theta < (0.13 + 0.30 * arm) * (0.8 + 0.2 * (1.0 - rip))
             out[calyx] = _bgr(CALYX_RGB) * (1.0 + 0.15 * tex[calyx, None])
+        rib = min(max((float(f.radius) - RIBS[0]) / (RIBS[1] - RIBS[0]), 0.0), 1.0) * RIBS[2]
+        if rib > 0:
+            # large fruit are lobed round the stem: tilt the shading normal across the lobes
+            # (the silhouette stays the sphere's)
+            az = np.arctan2(a2, a1) + np.float32(phase * 2 * math.pi)
+            w = (np.float32(rib) * np.sin(RIBS[3] * az) *
+                 np.clip(cos_t + 0.3, 0.0, 1.0))[:, None]
+            n = n + w * (np.cos(az)[:, None] * e2[None, :] - np.sin(az)[:, None] * e1[None, :])
+            n /= np.linalg.norm(n, axis=1)[:, None]
         # Lambert + gloss: n.h = (n.v + n.l) / |v + l|, v = -ray / |ray|
         l = -ctx.light_cam
         nl = n.dot(l)
