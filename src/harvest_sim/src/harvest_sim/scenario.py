@@ -697,7 +697,9 @@ class _Generator(object):
                 ripe = ripe_flags[placed + j]
                 want_reach = bool(rng.random() >= k['unreachable_fraction'])
                 radius = round(float(rng.uniform(*SIZE_CLASSES[size_class])), 4)
-                pos = self._place(y, eyes, radius, members, gap, want_reach)
+                # cherry trusses are long and open: their fruit hang further apart
+                pos = self._place(y, eyes, radius, members,
+                                  gap + (0.012 if size_class == 'cherry' else 0.0), want_reach)
                 fid = 'f%02d_%d' % (index, placed + j)
                 members.append(Fruit(fid, pos, radius, self._ripeness(ripe), cluster_id,
                                      picking_point=index))
