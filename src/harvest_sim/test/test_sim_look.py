@@ -205,7 +205,7 @@ MEASURED = {'green': ((0.31, 0.46), (30, 49)), 'turning': ((0.38, 0.47), (20, 32
 def test_rendered_fruit_colours_fall_in_the_ranges_measured_on_real_photos():
     cam = STEREO
     found = {}
-    for name in ('three_targets', 'greenhouse_daylight'):
+    for name in ('three_targets', 'greenhouse_daylight', 'unripe_only'):    # daylight looks
         s = scn.load_scenario(scn.resolve_scenario(name, SCENARIOS))
         r = render.Renderer(s)
         fr = render.fruits_from_scenario(s)
