@@ -198,3 +198,19 @@ def test_joint_states_are_exact(model):
 def test_time_never_runs_backwards(model):
     model.update(5.0)
     assert model.read_holding(cm.REG_HEARTBEAT, 1, 1.0) == [500]
+
+
+def test_busy_until_knows_when_everything_under_way_ends(model):
+    assert model.busy_until(1.0) == 1.0                       # at rest
+    move(model, CART, model.axes[CART].to_counts(0.5), 1.0)
+    end = model.axes[CART].profile.end_time
+    assert end > 1.5
+    assert model.busy_until(1.2) == pytest.approx(end)        # known when the command comes
+    assert model.busy_until(end + 0.1) == pytest.approx(end + 0.1)
+    model.set_valve(True, 10.0)
+    assert model.busy_until(10.0) == 10.0                     # an open valve alone does nothing
+    model.set_sealed(True, 10.2)
+    assert model.busy_until(10.2) == pytest.approx(10.7)      # vacuum builds up for 0.5 s
+    model.start_shear(11.0)
+    assert model.busy_until(11.0) == pytest.approx(11.5)      # 0.3 s stroke + 0.2 s hold
+    assert model.busy_until(11.6) == pytest.approx(11.6)

@@ -2,13 +2,16 @@
 
 Node `self_test_server`
   Action server: self_test (harvest_msgs/Start)
-  Params: ~components: list of {name, type, topic, timeout}; type is
+  Params: ~components: list of {name, type, topic, timeout[, trigger]}; type is
     - `action`: an action server is up (its <topic>/status is published by some node); the
       graph components wait up to their timeout (default 5 s) for start-up
-    - `topic`: messages arrive on <topic> within timeout seconds (cameras, point cloud)
+    - `topic`: messages arrive on <topic> within timeout seconds (cameras, point cloud); with
+      `trigger`, a std_msgs/Empty is published there first and every second while waiting (a
+      triggered camera takes a frame only when asked; a free-running one ignores it)
     - `status`: a diagnostic_msgs/DiagnosticStatus on <topic> has level OK (the motion controller
       enabled and fault-free, published latched by motion_pkg's motion_server)
     - `subscriber`: some node subscribes <topic> (the database takes the mission records)
+  Every timeout is in ROS time (sim time in simulation).
 """
 import threading
 
@@ -17,8 +20,14 @@ import rosgraph
 import rospy
 from diagnostic_msgs.msg import DiagnosticStatus
 from harvest_msgs.msg import StartAction, StartFeedback, StartResult
+from std_msgs.msg import Empty
 
 COMPONENT_TYPES = ('action', 'topic', 'status', 'subscriber')
+#: wall seconds between checks of a ROS-time deadline while waiting for a message (the message
+#: itself wakes the wait at once)
+WAIT_SLICE = 0.05
+#: ROS seconds between two triggers of a `topic` component's camera
+TRIGGER_PERIOD = 1.0
 
 
 def parse_components(raw):
@@ -39,7 +48,7 @@ def parse_components(raw):
         if not timeout > 0:
             raise ValueError('~components[%d] (%s): timeout must be > 0' % (i, item['name']))
         out.append({'name': str(item['name']), 'type': item['type'], 'topic': str(item['topic']),
-                    'timeout': timeout})
+                    'timeout': timeout, 'trigger': str(item.get('trigger') or '')})
     return out
 
 
@@ -118,14 +127,40 @@ class SelfTestServer(object):
             results[comp['name']] = (False, 'not checked: shutting down')
         return results
 
+    @staticmethod
+    def _wait_ros(event, timeout, tick=None):
+        """Wait for a threading.Event up to `timeout` seconds of ROS time; call tick() at once
+        and every TRIGGER_PERIOD ROS seconds while waiting. True when the event was set."""
+        end = rospy.get_rostime() + rospy.Duration.from_sec(timeout)
+        next_tick = rospy.get_rostime()
+        while not rospy.is_shutdown():
+            now = rospy.get_rostime()
+            if tick is not None and now >= next_tick:
+                tick()
+                next_tick = now + rospy.Duration.from_sec(TRIGGER_PERIOD)
+            if event.wait(WAIT_SLICE):
+                return True
+            if rospy.get_rostime() >= end:
+                return event.is_set()
+        return False
+
     def check_topic(self, comp):
-        """A topic or status component: wait for one message within its timeout."""
+        """A topic or status component: wait for one message within its timeout (ROS time)."""
         topic = rospy.resolve_name(comp['topic'])
-        try:
-            if comp['type'] == 'topic':
-                rospy.wait_for_message(topic, rospy.AnyMsg, timeout=comp['timeout'])
-                return True, ''
-        except rospy.ROSException:
+        if comp['type'] == 'topic':
+            got = threading.Event()
+            sub = rospy.Subscriber(topic, rospy.AnyMsg, lambda _m: got.set(), queue_size=1)
+            trigger = None
+            if comp['trigger']:
+                trigger = rospy.Publisher(comp['trigger'], Empty, queue_size=1)
+            try:
+                if self._wait_ros(got, comp['timeout'],
+                                  (lambda: trigger.publish(Empty())) if trigger else None):
+                    return True, ''
+            finally:
+                sub.unregister()
+                if trigger is not None:
+                    trigger.unregister()
             return False, 'no message on %s within %.1f s' % (topic, comp['timeout'])
         # a status: wait until it reports OK (a controller may still be connecting at start-up)
         ok_event = threading.Event()
@@ -138,7 +173,7 @@ class SelfTestServer(object):
 
         sub = rospy.Subscriber(topic, DiagnosticStatus, on_status, queue_size=10)
         try:
-            if ok_event.wait(comp['timeout']):
+            if self._wait_ros(ok_event, comp['timeout']):
                 return True, ''
         finally:
             sub.unregister()

@@ -10,14 +10,31 @@ stereo_image_proc, asserts that both camera_info frames are equal.
 ~kind "hand": the eye-in-hand camera on the cutting hand: hand_camera/image_raw and
 hand_camera/camera_info in frame hand_camera_optical.
 
-Subscriptions: joint_states (remap to /sim/joint_states), fruits (remap to /sim/fruits).
+Subscriptions: joint_states (remap to /sim/joint_states), fruits (remap to /sim/fruits),
+bumblebee2/image_trigger or hand_camera/image_trigger (std_msgs/Empty, ~triggered only).
+Publications: the images and camera_info above; sim/clock_hold (harvest_sim/ClockHold).
 The image shows the scene at the latest joint state; a frame is rendered only when the camera
 pose or the fruit changed, otherwise the cached frame is republished with a new stamp. Nothing is
 rendered or published while nobody subscribes (~always_publish false).
+
+Free-running (default): one frame every 1/~rate of ROS time. Triggered (~triggered true, like a
+camera with a software trigger, or Gazebo's triggered camera): one frame per message on
+image_trigger, showing the robot at the first joint state stamped at or after the trigger's
+arrival and stamped with that joint state's time, so a frame asked for after a move shows the
+robot where it stopped. Nothing else is rendered. Triggers that come before that frame is out
+share it.
+
+Clock holds (~hold_clock, default true): the camera holds sim_clock (sim/clock_hold) until it
+has delivered what is due: a free-running camera with subscribers at its next frame's time, a
+triggered camera from the trigger until its frame is out. Rendering therefore takes no simulated
+time and the frames keep their simulated rate on a loaded machine.
+
 Parameters: ~scenario (required, name or path), ~kind (stereo|hand), ~rate (Hz of ROS time:
 stereo 2, hand 5), ~width, ~height, ~hfov_deg (defaults 1024x768/66 deg and 640x480/60 deg),
 ~noise_sigma (2.0 DN), ~seed (default: the scenario's), ~robot_config, ~always_publish (false),
-~right_frame_id (stereo_left_optical).
+~right_frame_id (stereo_left_optical), ~triggered (false), ~hold_clock (true),
+~pose_wait_wall (1.0 wall seconds: a triggered camera holding the clock for a joint state at the
+trigger's time lets it run on after this long).
 """
 
 import threading
@@ -26,9 +43,10 @@ import time
 import numpy as np
 import rospy
 from sensor_msgs.msg import CameraInfo, Image, JointState
+from std_msgs.msg import Empty
 
 from harvest_sim import camera_model, names, render
-from harvest_sim.msg import SimFruitArray
+from harvest_sim.msg import ClockHold, SimFruitArray
 from harvest_sim.world_node import default_robot_config, load_scenario_param
 from motion_pkg.kinematics import RobotGeometry
 
@@ -83,6 +101,30 @@ class Eye(object):
         return self.image_pub.get_num_connections() > 0 or self.info_pub.get_num_connections() > 0
 
 
+class ClockHolder(object):
+    """This node's hold on sim_clock (sim/clock_hold); a no-op when disabled."""
+
+    def __init__(self, enabled):
+        self._pub = rospy.Publisher(names.CLOCK_HOLD, ClockHold, queue_size=20,
+                                    tcp_nodelay=True) if enabled else None
+        self._msg = ClockHold(holder=rospy.get_name())
+        self._until = None
+
+    def hold(self, until):
+        """Let the clock run until it reaches `until` (rospy.Time); None or zero releases."""
+        if self._pub is None:
+            return
+        until = until if until is not None else rospy.Time(0)
+        if until == self._until:
+            return
+        self._until = until
+        self._msg.until = until
+        try:
+            self._pub.publish(self._msg)
+        except rospy.ROSException:        # shutting down
+            pass
+
+
 class SimCameraNode(object):
     def __init__(self):
         self.scenario = load_scenario_param()
@@ -101,6 +143,9 @@ class SimCameraNode(object):
         self.renderer = render.Renderer(self.scenario, seed,
                                         noise_sigma=rospy.get_param('~noise_sigma', 2.0))
         self.always = rospy.get_param('~always_publish', False)
+        self.triggered = bool(rospy.get_param('~triggered', False))
+        self.pose_wait_wall = float(rospy.get_param('~pose_wait_wall', 1.0))
+        self.holder = ClockHolder(bool(rospy.get_param('~hold_clock', True)))
         if self.kind == 'stereo':
             self.eyes = [Eye('left', camera, 'stereo_left_optical', names.STEREO_LEFT_IMAGE,
                              names.STEREO_LEFT_INFO),
@@ -111,21 +156,40 @@ class SimCameraNode(object):
             self.eyes = [Eye('hand', camera, 'hand_camera_optical', names.HAND_IMAGE,
                              names.HAND_INFO)]
         self._lock = threading.Lock()
+        self._render_lock = threading.RLock()     # one frame (and hold) at a time
         self._joints = {}
+        self._joints_stamp = None
         self._fruits = render.fruits_from_scenario(self.scenario)
         self._fruit_key = None
         self._rendered_key = None
+        self._trigger = None          # ROS time of the latest trigger not served yet
+        self._generation = 0          # counts trigger rounds (a stale fallback timer is ignored)
         rospy.Subscriber(names.JOINT_STATES, JointState, self._on_joints, queue_size=1)
         rospy.Subscriber(names.FRUITS, SimFruitArray, self._on_fruits, queue_size=1)
         rate = float(rospy.get_param('~rate', d['rate']))
-        self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._on_timer)
-        rospy.loginfo('sim_camera: %s camera %dx%d, %.1f deg HFOV, %.1f Hz', self.kind,
-                      camera.width, camera.height, camera.hfov_deg(), rate)
+        if self.triggered:
+            rospy.Subscriber(names.STEREO_TRIGGER if self.kind == 'stereo' else
+                             names.HAND_TRIGGER, Empty, self._on_trigger, queue_size=10,
+                             tcp_nodelay=True)
+            self._timer = None
+        else:
+            self._period = rospy.Duration(1.0 / rate)
+            self._timer = rospy.Timer(self._period, self._on_timer)
+        rospy.loginfo('sim_camera: %s camera %dx%d, %.1f deg HFOV, %s', self.kind,
+                      camera.width, camera.height, camera.hfov_deg(),
+                      'triggered' if self.triggered else '%.1f Hz' % rate)
 
+    def _wanted(self):
+        return self.always or any(e.wanted() for e in self.eyes)
+
+    # -- inputs ---------------------------------------------------------------------------
     def _on_joints(self, msg):
         with self._lock:
             self._joints.update(zip(msg.name, msg.position))
             self._joints_stamp = msg.header.stamp
+            trigger = self._trigger
+        if trigger is not None and msg.header.stamp >= trigger:
+            self._serve_trigger()
 
     def _on_fruits(self, msg):
         index = dict((f.id, i) for i, f in enumerate(self.scenario.fruits))
@@ -144,20 +208,81 @@ class SimCameraNode(object):
         with self._lock:
             self._fruits, self._fruit_key = fruits, key
 
-    def _on_timer(self, _event):
-        if not self.always and not any(e.wanted() for e in self.eyes):
-            return
+    # -- triggered ------------------------------------------------------------------------
+    def _on_trigger(self, _msg):
+        now = rospy.Time.now()
+        with self._render_lock:
+            with self._lock:
+                first = self._trigger is None
+                # one frame serves every trigger that came before the pose it shows
+                self._trigger = now if first else max(self._trigger, now)
+                self._generation += first
+                generation = self._generation
+            # stop the clock here until a joint state at or after the trigger has come (the
+            # simulated controller publishes one on every tick) and the frame is out
+            self.holder.hold(now)
+            if first:
+                watchdog = threading.Timer(self.pose_wait_wall, self._pose_late, (generation,))
+                watchdog.daemon = True
+                watchdog.start()
+            self._serve_trigger()
+
+    def _pose_late(self, generation):
+        """Wall-time watchdog: no joint state at or after the trigger has come while the clock
+        stood still (the controller's rate is not a multiple of the tick rate, or no controller):
+        let the clock run until one comes. The frame never shows an older pose as new."""
+        with self._render_lock:
+            with self._lock:
+                pending = self._trigger is not None and generation == self._generation
+            if pending:
+                rospy.logwarn_throttle(10.0, 'sim_camera: no joint state at the trigger\'s time '
+                                       'within %.1f wall seconds; the clock runs on until one '
+                                       'comes' % self.pose_wait_wall)
+                self.holder.hold(None)
+
+    def _serve_trigger(self):
+        """Render the frame a trigger asked for once a joint state stamped at or after the
+        trigger is here; the frame carries that joint state's stamp."""
+        with self._render_lock:
+            with self._lock:
+                trigger, stamp = self._trigger, self._joints_stamp
+            if trigger is None or stamp is None or stamp < trigger:
+                return
+            self.holder.hold(rospy.Time.now())          # stop the clock while rendering
+            try:
+                if self._wanted():
+                    self._frame()
+            finally:                  # a failed render must not stop the world
+                with self._lock:
+                    self._trigger = None
+                self.holder.hold(None)
+
+    # -- free-running ---------------------------------------------------------------------
+    def _on_timer(self, event):
+        with self._render_lock:
+            if not self._wanted():
+                self.holder.hold(None)
+                return
+            try:
+                self._frame()
+            finally:
+                # hold the clock at the next frame's time until that frame is out
+                self.holder.hold(event.current_expected + self._period)
+
+    # -- one frame ------------------------------------------------------------------------
+    def _frame(self):
         with self._lock:
             joints = dict(self._joints)
-            joints_stamp = getattr(self, '_joints_stamp', None)
+            joints_stamp = self._joints_stamp
             fruits, fkey = self._fruits, self._fruit_key
         key = (tuple(round(joints.get(j, 0.0), 5) for j in POSE_JOINTS[self.kind]), fkey)
         stamp = rospy.Time.now()
-        if key != self._rendered_key:
+        if key != self._rendered_key or self.triggered:
             # A new view shows the robot where it was at its joint state's time, not when the
             # render ends: stamp it so (a pair taken while the cart stops must not look fresh).
             if joints_stamp is not None and not joints_stamp.is_zero() and joints_stamp < stamp:
                 stamp = joints_stamp
+        if key != self._rendered_key:
             poses = self.geom.frame_transforms(joints)
             for e in self.eyes:
                 start = time.perf_counter()
@@ -174,4 +299,3 @@ class SimCameraNode(object):
             e.info.header.stamp = stamp
             e.info_pub.publish(e.info)
             e.image_pub.publish(e.image)
-

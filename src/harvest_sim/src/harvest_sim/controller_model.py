@@ -299,6 +299,23 @@ class ControllerModel(object):
             t = self._now(t)
             return any(a.moving(t) for a in self.axes)
 
+    def busy_until(self, t):
+        """Time until which something is under way: an axis moving (its profile's end), the
+        vacuum building up on a sealed cup, the shear closing and holding; t when all is at
+        rest. Only commands (and the seal) change it, so it is known as soon as they come."""
+        with self._lock:
+            t = self._now(t)
+            until = t
+            for a in self.axes:
+                if a.moving(t):
+                    until = max(until, a.profile.end_time)
+            if self.valve_open and self.sealed:
+                until = max(until, max(self._valve_since, self._sealed_since) +
+                            self.suction_build_up)
+            if self._shear_start is not None:
+                until = max(until, self._shear_start + self.shear_stroke + self.shear_hold)
+            return until
+
     # --- Modbus data model ---------------------------------------------------------------
     @staticmethod
     def writable_holding(address, count):

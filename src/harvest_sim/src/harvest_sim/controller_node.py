@@ -7,6 +7,9 @@ Publications (relative; the node runs in namespace ``sim``):
   joint_states (sensor_msgs/JointState)  URDF joint names, every ``~publish_rate`` (ROS time)
   suction_valve (std_msgs/Bool, latched) valve state on every change
   shear_cut (std_msgs/Header)            one per shear closure, stamp = closing time
+  activity (harvest_sim/SimActivity)     for sim_clock: ACTION on every Modbus write, BUSY with
+                                         the time until which something is under way (axes,
+                                         vacuum build-up, shear) whenever that changes
 Subscriptions:
   suction_sealed (std_msgs/Bool)         true while the suction cup sits on a fruit
 Services:
@@ -29,8 +32,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Header
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
+from harvest_sim import names
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config
 from harvest_sim.controller_server import ControllerServer, apply_faults, parse_fault_spec
+from harvest_sim.msg import SimActivity
 
 
 def default_robot_config():
@@ -50,10 +55,15 @@ class SimControllerNode(object):
                                      rospy.get_param('~shear_hold', 0.2), rospy.get_time())
         self.joint_names = [c.name + '_joint' for c in configs]
         self._lock = threading.Lock()
+        self.activity_pub = rospy.Publisher(names.ACTIVITY, SimActivity, queue_size=50,
+                                            tcp_nodelay=True)
+        self._busy_until = None
+        self._activity_lock = threading.Lock()
         self.server = ControllerServer(self.model, rospy.get_time,
                                        rospy.get_param('~host', '127.0.0.1'),
                                        rospy.get_param('~port', 5020),
-                                       rospy.get_param('~unit_id', 1))
+                                       rospy.get_param('~unit_id', 1),
+                                       on_write=self._on_write)
         self.joint_pub = rospy.Publisher('joint_states', JointState, queue_size=10)
         self.valve_pub = rospy.Publisher('suction_valve', Bool, queue_size=10, latch=True)
         self.cut_pub = rospy.Publisher('shear_cut', Header, queue_size=10)
@@ -73,7 +83,33 @@ class SimControllerNode(object):
 
     def _apply(self, text):
         with self._lock:
-            return apply_faults(parse_fault_spec(text), self.model, self.server, rospy.get_time())
+            summary = apply_faults(parse_fault_spec(text), self.model, self.server,
+                                   rospy.get_time())
+        self._publish_busy(rospy.get_time())
+        return summary
+
+    # --- activity, for sim_clock ---------------------------------------------------------
+    def _on_write(self, t):
+        """A Modbus write (server thread): the robot acted; what is now under way?"""
+        self._publish_activity(SimActivity.ACTION, 0.0)
+        self._publish_busy(t)
+
+    def _publish_busy(self, t):
+        until = self.model.busy_until(t)
+        with self._activity_lock:
+            if until == self._busy_until:
+                return
+            self._busy_until = until
+        self._publish_activity(SimActivity.BUSY, until)
+
+    def _publish_activity(self, kind, until):
+        msg = SimActivity(source=rospy.get_name(), kind=kind)
+        if until > 0.0:
+            msg.until = rospy.Time.from_sec(until)
+        try:
+            self.activity_pub.publish(msg)
+        except rospy.ROSException:        # shutting down
+            pass
 
     def _on_inject(self, _req):
         text = rospy.get_param('~fault', '')
@@ -92,7 +128,9 @@ class SimControllerNode(object):
         return SetBoolResponse(success=ok, message=state if ok else 'cannot listen')
 
     def _on_sealed(self, msg):
-        self.model.set_sealed(msg.data, rospy.get_time())
+        t = rospy.get_time()
+        self.model.set_sealed(msg.data, t)
+        self._publish_busy(t)          # a sealed cup starts the vacuum build-up
 
     def _on_timer(self, _event):
         now = rospy.get_rostime()

@@ -86,12 +86,15 @@ class _ModelContext(ModbusBaseSlaveContext):
             self._model.write_holding(address, values, t)
         elif table == 'c':
             self._model.write_coils(address, values, t)
+        if self._server.on_write is not None:
+            self._server.on_write(t)
 
 
 class ControllerServer(object):
     """Serves the model over Modbus TCP from a background thread."""
 
-    def __init__(self, model, clock, host='127.0.0.1', port=5020, unit=1):
+    def __init__(self, model, clock, host='127.0.0.1', port=5020, unit=1, on_write=None):
+        """on_write(t): called (in the server thread) after every write to the model."""
         if host not in LOOPBACK_HOSTS and not host.startswith('127.'):
             raise ValueError('the simulated controller listens on loopback only, not %r' % host)
         self.host = host
@@ -99,6 +102,7 @@ class ControllerServer(object):
         self.unit = int(unit)
         self.delay = 0.0
         self.exception_code = 0
+        self.on_write = on_write
         self._context = ModbusServerContext(
             slaves={self.unit: _ModelContext(model, clock, self)}, single=False)
         self._server = None

@@ -1,14 +1,17 @@
 """Image acquisition nodes of the vision module (section 3.5.1): ROS glue only.
 
 DualEyeImageCapture (dual_eye_image_capture)
-    ~source: 'simulated' (default) relays
+    ~source: 'relay' (default; 'simulated' is accepted for it) relays
         bumblebee2/{left,right}/{image_raw,camera_info} -> stereo/{left,right}/{image_raw,camera_info}
+        (a simulator that publishes under bumblebee2/; vision.launch with stereo_source:=simulated
+        starts no capture node: harvest_sim then publishes stereo/* itself, without this copy)
     'bumblebee2' grabs the real Bumblebee2 through the FlyCapture2 SDK Python bindings
     (PyCapture2) and publishes the same four topics with camera_info from calibration files.
     stereo_image_proc, run in namespace 'stereo', turns them into the paper's five images.
 SingleEyeImageCapture (single_eye_image_capture)
-    ~source: 'simulated' (default) relays hand_camera/{image_raw,camera_info} ->
-    hand_eye/{image_raw,camera_info}; 'v4l2' opens a V4L2 device with OpenCV and publishes
+    ~source: 'relay' (default; 'simulated' is accepted for it) relays
+    hand_camera/{image_raw,camera_info} -> hand_eye/{image_raw,camera_info}; 'v4l2' opens a V4L2
+    device with OpenCV and publishes
     hand_eye/image_raw plus hand_eye/camera_info from ~camera_info_url.
 Both publish /diagnostics (output frame rates).
 """
@@ -28,6 +31,8 @@ IMAGE_BUFF_SIZE = 16 * 1024 * 1024
 RATE_TOLERANCE = 0.5
 #: diagnostics publishing period [s]
 DIAGNOSTIC_PERIOD = 1.0
+#: ~source values that relay a simulator's topics
+RELAY_SOURCES = ('relay', 'simulated')
 
 
 def camera_info_from_calibration(calib, frame_id):
@@ -133,7 +138,7 @@ class DualEyeImageCapture(object):
     """Bumblebee2 stereo head acquisition (see module docstring)."""
 
     def __init__(self):
-        self.source = rospy.get_param('~source', 'simulated')
+        self.source = rospy.get_param('~source', 'relay')
         self.input_ns = rospy.get_param('~input_ns', names.BUMBLEBEE2_NS)
         self.output_ns = rospy.get_param('~output_ns', names.STEREO_NS)
         self.frame_ids = {'left': rospy.get_param('~left_frame_id', ''),
@@ -142,7 +147,7 @@ class DualEyeImageCapture(object):
         self.diagnostics = RateDiagnostics('bumblebee2 (%s)' % self.source, rate)
         self.relays = []
         self.grabber = None
-        if self.source == 'simulated':
+        if self.source in RELAY_SOURCES:
             for eye in names.EYES:
                 for topic, msg_type in ((names.IMAGE_RAW, Image), (names.CAMERA_INFO, CameraInfo)):
                     self.relays.append(TopicRelay(
@@ -155,7 +160,7 @@ class DualEyeImageCapture(object):
         elif self.source == 'bumblebee2':
             self.grabber = Bumblebee2Grabber(self.output_ns, self.frame_ids, self.diagnostics)
         else:
-            _fatal("dual_eye_image_capture: unknown ~source '%s' (use 'simulated' or 'bumblebee2')"
+            _fatal("dual_eye_image_capture: unknown ~source '%s' (use 'relay' or 'bumblebee2')"
                    % self.source)
 
     def shutdown(self):
@@ -184,7 +189,7 @@ class Bumblebee2Grabber(object):
         except ImportError:
             _fatal("dual_eye_image_capture: ~source 'bumblebee2' needs the FLIR FlyCapture2 SDK "
                    "and its Python bindings (module PyCapture2), which are not installed. Install "
-                   "the vendor SDK, or run with source:=simulated.")
+                   "the vendor SDK, or run with source:=relay (a simulator).")
             return
         import cv2
         self._cv2 = cv2
@@ -259,7 +264,7 @@ class SingleEyeImageCapture(object):
     """Eye-in-hand monocular camera acquisition (see module docstring)."""
 
     def __init__(self):
-        self.source = rospy.get_param('~source', 'simulated')
+        self.source = rospy.get_param('~source', 'relay')
         self.input_ns = rospy.get_param('~input_ns', names.HAND_CAMERA_NS)
         self.output_ns = rospy.get_param('~output_ns', names.HAND_EYE_NS)
         self.frame_id = rospy.get_param('~frame_id', '')
@@ -267,7 +272,7 @@ class SingleEyeImageCapture(object):
         self.diagnostics = RateDiagnostics('hand camera (%s)' % self.source, self.fps)
         self.relays = []
         self.grabber = None
-        if self.source == 'simulated':
+        if self.source in RELAY_SOURCES:
             for topic, msg_type in ((names.IMAGE_RAW, Image), (names.CAMERA_INFO, CameraInfo)):
                 self.relays.append(TopicRelay(
                     '%s/%s' % (self.input_ns, topic), '%s/%s' % (self.output_ns, topic),
@@ -279,7 +284,7 @@ class SingleEyeImageCapture(object):
             self.grabber = V4l2Grabber(self.output_ns, self.frame_id or names.HAND_OPTICAL_FRAME,
                                        self.fps, self.diagnostics)
         else:
-            _fatal("single_eye_image_capture: unknown ~source '%s' (use 'simulated' or 'v4l2')"
+            _fatal("single_eye_image_capture: unknown ~source '%s' (use 'relay' or 'v4l2')"
                    % self.source)
 
     def shutdown(self):
@@ -311,7 +316,7 @@ class V4l2Grabber(object):
         self._cap = cv2.VideoCapture(index, cv2.CAP_V4L2)
         if not self._cap.isOpened():
             _fatal('single_eye_image_capture: cannot open V4L2 device %s (absent, busy or no '
-                   'permission); check ~device or run with source:=simulated' % device)
+                   'permission); check ~device or run with source:=relay (a simulator)' % device)
             return
         self._cap.set(cv2.CAP_PROP_FRAME_WIDTH, width)
         self._cap.set(cv2.CAP_PROP_FRAME_HEIGHT, height)

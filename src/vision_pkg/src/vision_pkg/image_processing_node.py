@@ -15,17 +15,24 @@ Subscribed topics
   optical frame), hand_eye/image_raw, hand_eye/camera_info
 Published topics
   detections/markers (visualization_msgs/MarkerArray), detections/image (sensor_msgs/Image),
-  /diagnostics (input rates)
+  /diagnostics (input rates), stereo/image_trigger and hand_eye/image_trigger (std_msgs/Empty:
+  a goal that needs a fresh frame asks the camera for one, and again every ~trigger_period while
+  it waits; a free-running camera ignores them, a triggered one, such as harvest_sim's, takes
+  its frames only then)
+Timing: every wait and timeout is in ROS time (sim time under /use_sim_time): nothing depends
+  on how fast the wall clock runs. Fresh data is judged by stamps: a goal takes the first
+  stereo pair (right image and point cloud with equal stamps) or hand image stamped at or after
+  its arrival.
 Parameters (defaults in code and config/image_processing.yaml)
   ~target_frame (base_link), ~min_ripeness (0.7), ~fresh_data (true), ~data_timeout (5.0 s),
   ~tf_timeout (0.5 s), ~row_tolerance_px (40), ~stereo_detection/* and ~hand_detection/*
   (detector parameters, see vision_pkg.detection.DEFAULTS), ~expected_rate (10 Hz, for
-  diagnostics), ~hand_expected_rate (10 Hz)
+  diagnostics; 0: frames come on demand, no rate check), ~hand_expected_rate (10 Hz; 0 idem),
+  ~trigger_period (1.0 s)
 """
 import collections
 import math
 import threading
-import time
 
 import actionlib
 import cv2
@@ -36,6 +43,7 @@ import tf2_ros
 import diagnostic_updater
 from cv_bridge import CvBridge, CvBridgeError
 from geometry_msgs.msg import PointStamped
+from std_msgs.msg import Empty
 from harvest_msgs.msg import (ImageProcessingAction, ImageProcessingGoal, ImageProcessingResult,
                               ServoFeature, Tomato, TomatoArray, TomatoScanAction,
                               TomatoScanResult)
@@ -49,8 +57,9 @@ from vision_pkg.detection import TomatoDetector
 BUFF_SIZE = 16 * 1024 * 1024
 #: how many recent right images are kept to pair with a later point cloud
 IMAGE_HISTORY = 8
-#: wall-clock cap on data waits, as a multiple of ~data_timeout (guards a stalled sim clock)
-WALL_CAP_FACTOR = 3.0
+#: wall seconds between checks of a data wait's deadline and cancellation when no data comes
+#: (data, cancellation and shutdown wake the wait at once; the deadline itself is ROS time)
+WAIT_POLL = 0.1
 #: accepted input-rate band for diagnostics, as a fraction of the expected rate
 RATE_TOLERANCE = 0.5
 #: hand camera detector defaults that differ from the stereo ones (640x480, full resolution)
@@ -80,6 +89,13 @@ def _stamp_id(stamp):
     return 'stereo_right_%d.%09d' % (stamp.secs, stamp.nsecs)
 
 
+class _NoRateCheck(object):
+    """Stands in for a frequency diagnostic of an input that comes on demand."""
+
+    def tick(self):
+        pass
+
+
 class _Goal(object):
     """Cancellation flag of one running goal."""
 
@@ -102,6 +118,8 @@ class ImageProcessingNode(object):
         # a fruit cut by the image border has a wrong circle and 3D point: pick it from the next point
         self.border_margin_px = float(rospy.get_param('~border_margin_px', 4.0))
         self.row_tolerance = float(rospy.get_param('~row_tolerance_px', 40.0))
+        self.trigger_period = rospy.Duration.from_sec(float(rospy.get_param('~trigger_period',
+                                                                            1.0)))
         self.stereo_detector = TomatoDetector(**_detector_params('~stereo_detection', {}))
         self.hand_detector = TomatoDetector(**_detector_params('~hand_detection',
                                                                HAND_DETECTOR_DEFAULTS))
@@ -125,6 +143,8 @@ class ImageProcessingNode(object):
         self._setup_diagnostics()
         self.marker_pub = rospy.Publisher(names.MARKERS, MarkerArray, queue_size=1, latch=True)
         self.image_pub = rospy.Publisher(names.ANNOTATED_IMAGE, Image, queue_size=1, latch=True)
+        self.stereo_trigger = rospy.Publisher(names.STEREO_TRIGGER, Empty, queue_size=1)
+        self.hand_trigger = rospy.Publisher(names.HAND_TRIGGER, Empty, queue_size=1)
         self._subs = [
             rospy.Subscriber(names.RIGHT_RECT_COLOR, Image, self._on_right_image, queue_size=1,
                              buff_size=BUFF_SIZE, tcp_nodelay=True),
@@ -159,6 +179,9 @@ class ImageProcessingNode(object):
                                   (names.POINTS2, '~expected_rate'),
                                   (names.HAND_IMAGE, '~hand_expected_rate')):
             rate = float(rospy.get_param(rate_param, 10.0))
+            if rate <= 0.0:          # triggered camera: frames come on demand, no rate to check
+                self._freq[topic] = _NoRateCheck()
+                continue
             bounds = {'min': rate * (1.0 - RATE_TOLERANCE), 'max': rate * (1.0 + RATE_TOLERANCE)}
             self._freq[topic] = diagnostic_updater.HeaderlessTopicDiagnostic(
                 topic, self.updater, diagnostic_updater.FrequencyStatusParam(bounds, 0.1, 10))
@@ -219,11 +242,13 @@ class ImageProcessingNode(object):
         with self._cond:
             self._hand_info = msg
 
-    def _wait(self, ready, goal, what):
-        """Block until ready() returns a value (under the lock); Aborted on timeout."""
+    def _wait(self, ready, goal, what, trigger=None):
+        """Block until ready() returns a value (under the lock); Aborted after ~data_timeout of
+        ROS time. trigger: publisher of the camera's image_trigger, fired at the start and every
+        ~trigger_period while nothing comes."""
         start_ros = rospy.get_rostime()
         deadline = rospy.Duration.from_sec(self.data_timeout)
-        wall_end = time.monotonic() + self.data_timeout * WALL_CAP_FACTOR
+        next_trigger = start_ros
         with self._cond:
             while True:
                 value = ready()
@@ -233,9 +258,13 @@ class ImageProcessingNode(object):
                     raise Cancelled()
                 if rospy.is_shutdown():
                     raise Aborted('node shutting down')
-                if rospy.get_rostime() - start_ros > deadline or time.monotonic() > wall_end:
+                now = rospy.get_rostime()
+                if now - start_ros > deadline:
                     raise Aborted('no %s within %.1f s' % (what, self.data_timeout))
-                self._cond.wait(0.1)
+                if trigger is not None and now >= next_trigger:
+                    trigger.publish(Empty())
+                    next_trigger = now + self.trigger_period
+                self._cond.wait(WAIT_POLL)
 
     def _stereo_pair(self, goal, since):
         """(image msg, cloud msg, right camera_info) with equal stamps, stamped at/after since."""
@@ -249,7 +278,8 @@ class ImageProcessingNode(object):
             return None
         return self._wait(ready, goal, 'stereo image + point cloud pair with matching stamps%s'
                           % (' received after the request' if since.to_sec() > 0 else '')
-                          + ' on %s and %s' % (names.RIGHT_RECT_COLOR, names.POINTS2))
+                          + ' on %s and %s' % (names.RIGHT_RECT_COLOR, names.POINTS2),
+                          self.stereo_trigger)
 
     def _hand_data(self, goal, since):
         def ready():
@@ -258,7 +288,7 @@ class ImageProcessingNode(object):
                 return None
             return msg, self._hand_info
         return self._wait(ready, goal, 'hand camera image on %s with camera_info'
-                          % names.HAND_IMAGE)
+                          % names.HAND_IMAGE, self.hand_trigger)
 
     # -- image_processing action --------------------------------------------------------------
     def _on_goal(self, handle):

@@ -19,6 +19,8 @@ HAND_IMAGE = 'hand_eye/image_raw'
 HAND_CAMERA_INFO = 'hand_eye/camera_info'
 
 # image_processing outputs
+STEREO_TRIGGER = 'stereo/image_trigger'     # std_msgs/Empty: take a frame now (triggered cameras)
+HAND_TRIGGER = 'hand_eye/image_trigger'
 IMAGE_PROCESSING_ACTION = 'image_processing'
 TOMATO_SCAN_ACTION = 'tomato_scan'
 MARKERS = 'detections/markers'
