@@ -14,8 +14,8 @@ BASELINE = 0.12
 # ripeness colour ramp (0 green .. 1 red) of real fruit skin under neutral light: OpenCV hue
 # (0..180) by ripeness, as the detector's documented calibration reads it (vision_pkg README),
 # saturation and value of real skin; green fruit are light yellowish green, red ones deep red
-_RAMP_RIPENESS = [0.0, 0.06, 0.18, 0.32, 0.45, 0.6, 0.75, 0.9, 1.0]
-_RAMP_HUE = [42.0, 36.0, 31.0, 27.0, 23.0, 19.0, 15.0, 10.0, 3.0]
+_RAMP_RIPENESS = [0.0, 0.06, 0.18, 0.3, 0.42, 0.55, 0.7, 0.88, 1.0]
+_RAMP_HUE = [41.0, 35.0, 30.0, 26.0, 22.0, 18.0, 14.0, 9.0, 3.0]
 _RAMP_SAT = [150.0, 150.0, 160.0, 170.0, 180.0, 190.0, 200.0, 205.0, 210.0]
 _RAMP_VAL = [200.0, 200.0, 205.0, 210.0, 215.0, 215.0, 210.0, 200.0, 190.0]
 #: BGR of leaves: the same yellow-green as green fruit (only shape and surface tell them apart)

@@ -41,9 +41,9 @@ NEAR = 0.01
 #: (ripeness, RGB albedo): skin colours measured on real photographs (README, "Measured fruit
 #: colours"): hue and saturation of the per-stage medians, red chromaticity R/(R+G+B) from
 #: 0.36 (green) to 0.60 (0.7) and 0.71 (1.0)
-RIPENESS_COLOURS = ((0.0, (0.475, 0.60, 0.227)), (0.2, (0.63, 0.69, 0.36)),
-                    (0.35, (0.74, 0.64, 0.31)), (0.55, (0.84, 0.52, 0.31)),
-                    (0.7, (0.80, 0.38, 0.18)), (0.85, (0.74, 0.30, 0.12)),
+RIPENESS_COLOURS = ((0.0, (0.475, 0.60, 0.227)), (0.2, (0.69, 0.69, 0.361)),
+                    (0.35, (0.74, 0.64, 0.31)), (0.55, (0.839, 0.627, 0.31)),
+                    (0.7, (0.80, 0.471, 0.18)), (0.85, (0.74, 0.30, 0.12)),
                     (1.0, (0.66, 0.18, 0.09)))
 _RIPENESS_STOPS = np.array([r for r, _ in RIPENESS_COLOURS], np.float32)
 _RIPENESS_BGR = np.array([c[::-1] for _, c in RIPENESS_COLOURS], np.float32)

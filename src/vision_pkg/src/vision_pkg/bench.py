@@ -354,6 +354,11 @@ def run(args, log=print):
         gts = [dict(box=clip_box(g['box'], w, h), stage=stage_of(g['ripeness']), id=g['id'],
                     care=g['visible'] >= args.min_visible) for g in frame['fruits']]
         pairs = ev.add(frame['name'], dets, _det_boxes(dets, w, h), gts, ms)
+        if args.annotate_render and len(frame['fruits']) >= 5 and \
+                not os.path.exists(args.annotate_render):
+            from vision_pkg.annotate import annotate
+            cv2.imwrite(args.annotate_render, annotate(right, [(d, -1) for d in dets]))
+            log('annotated render %s written to %s' % (frame['name'], args.annotate_render))
         cloud = None
         p_right = [frame['fx'], 0.0, frame['cx'], -frame['fx'] * frame['baseline'],
                    0.0, frame['fy'], frame['cy'], 0.0, 0.0, 0.0, 1.0, 0.0]
@@ -516,6 +521,9 @@ def main(argv):
     parser.add_argument('--save-dir', default=None,
                         help='write annotated photos here (outside the repository: the '
                              'development photos are licensed non-commercial)')
+    parser.add_argument('--annotate-render', default=None, metavar='PNG',
+                        help='write the detections on the first render with >= 5 fruit here '
+                             '(when the file does not exist yet)')
     parser.add_argument('-v', '--verbose', action='store_true', help='list every FP and FN')
     args = parser.parse_args(argv)
     if args.frames > 0:

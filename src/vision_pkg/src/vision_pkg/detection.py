@@ -89,8 +89,8 @@ DEFAULTS = {
     'max_regions': 30,          # regions examined per pass (largest first)
     'max_peaks': 6,             # fruit hypotheses per region
     # ripeness calibration: per-pixel wrapped hue (OpenCV units, red = 0) -> ripeness knots
-    'score_hue': [4.0, 10.0, 15.0, 19.0, 23.0, 27.0, 31.0, 36.0, 42.0],
-    'score_values': [1.0, 0.9, 0.75, 0.6, 0.45, 0.32, 0.18, 0.06, 0.0],
+    'score_hue': [4.0, 9.0, 14.0, 18.0, 22.0, 26.0, 30.0, 35.0, 41.0],
+    'score_values': [1.0, 0.88, 0.7, 0.55, 0.42, 0.3, 0.18, 0.06, 0.0],
     'pale_sat': 110,            # pixels less saturated than this drift towards score 0.5
 }
 
