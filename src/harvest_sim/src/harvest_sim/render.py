@@ -40,7 +40,7 @@ ROOF_Z = 3.2
 NEAR = 0.01
 #: (ripeness, RGB albedo): skin colours measured on real photographs (README, "Measured fruit
 #: colours"): hue and saturation of the per-stage medians, red chromaticity R/(R+G+B) from
-#: 0.36 (green) to 0.60 (0.7) and 0.71 (1.0)
+#: 0.36 (green) to 0.55 (0.7, hue 14: the pink/red boundary) and 0.71 (1.0)
 RIPENESS_COLOURS = ((0.0, (0.475, 0.60, 0.227)), (0.2, (0.69, 0.69, 0.361)),
                     (0.35, (0.74, 0.64, 0.31)), (0.55, (0.839, 0.627, 0.31)),
                     (0.7, (0.80, 0.471, 0.18)), (0.85, (0.74, 0.30, 0.12)),
