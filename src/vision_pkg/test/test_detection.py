@@ -230,3 +230,14 @@ def test_detect_rejects_what_is_not_a_colour_image():
         TomatoDetector().detect(np.zeros((10, 10, 3), np.float32))
     with pytest.raises(ValueError):
         TomatoDetector(scale=float('nan'))
+
+
+def test_dynamic_reconfigure_defaults_are_the_detector_defaults():
+    """image_processing applies the reconfigure values at start-up: a default there that
+    differs from detection.DEFAULTS would silently replace the calibrated one."""
+    from vision_pkg.cfg import ImageProcessingConfig
+    params = {p['name']: p['default'] for p in ImageProcessingConfig.config_description['parameters']}
+    shared = set(params) & set(detection.DEFAULTS)
+    assert {'hue_max', 'hue_wrap', 'sat_min', 'val_min', 'min_fill', 'min_fill_green'} <= shared
+    for key in shared:
+        assert params[key] == pytest.approx(detection.DEFAULTS[key]), key

@@ -67,14 +67,14 @@ DEFAULTS = {
     'green_hue_max': 50,
     'green_sat_min': 55,
     'green_val_min': 45,
-    'green_scale': 0.5,         # pass 2 (green fruit) runs at this fraction of the working size
+    'green_scale': 1.0,         # pass 2 (green fruit) runs at this fraction of the working size
     'edge_min': 0.12,           # gradient / brightness of an outline edge
-    'min_edge_support': 0.6,    # fraction of a green fruit's circle that is such a radial edge
-    'max_residual_green': 0.035,  # outline misfit (median / r) of a green fruit's circle
+    'min_edge_support': 0.8,    # fraction of a green fruit's circle that is such a radial edge
+    'max_residual_green': 0.03,   # outline misfit (median / r) of a green fruit's circle
     'max_area_ratio': 2.0,      # a green part's area / the area of its inscribed circle
     # shape
     'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
-    'min_fill_green': 0.6,      # same for green-coloured fruit (stricter: leaves are green)
+    'min_fill_green': 0.8,      # same for green-coloured fruit (stricter: leaves are green)
     'min_inside': 0.85,         # fraction of the part's pixels inside its fitted circle
     'peak_separation': 0.75,    # NMS: a peak closer than this x the stronger radius is merged
     'single_fit_residual_px': 0.9,  # a region whose outline fits one circle within this median
