@@ -703,9 +703,9 @@ class TomatoDetector(object):
                 p['min_fill']
             if inside < p['min_inside'] or fill < min_fill:
                 continue
-            if strict and not self._round_fruit_surface(frame, cx + ox, cy + oy, r, hsv_px,
-                                                        circle, fill, inside, score):
-                continue          # not round, or no edge all round: a leaf
+            if strict and score < STAGE_THRESHOLDS[0] and not self._round_fruit_surface(
+                    frame, cx + ox, cy + oy, r, hsv_px, circle, fill, inside, score):
+                continue          # green, but not round or no edge all round: a leaf
             x0 = max(int(math.floor(cx - r)) - 1, 0)
             y0 = max(int(math.floor(cy - r)) - 1, 0)
             crop = part[y0:int(math.ceil(cy + r)) + 2, x0:int(math.ceil(cx + r)) + 2]
