@@ -5,7 +5,7 @@ VENV := $(ROOT)/.venv
 # The ROS interpreter's venv comes first, so no other python3 on PATH is ever used.
 export PATH := $(VENV)/bin:/usr/bin:/bin:$(PATH)
 
-.PHONY: setup build demo test lint docker-base docker-test clean
+.PHONY: setup build demo test lint load-check docker-base docker-test clean
 
 setup:
 	@tools/setup.sh
@@ -20,6 +20,10 @@ test: setup
 
 lint: setup
 	@HARVEST_ONLY_LINT=1 tools/run_tests.sh
+
+# every mission scenario beside two CPU hogs (stress-ng); one line per scenario
+load-check: setup
+	@tools/load_check.sh
 
 docker-base:
 	@docker/make_base.sh

@@ -90,14 +90,15 @@ def test_set_scale_moves_the_anchor():
 
 def test_rest_pace_runs_at_real_time_only_while_the_world_rests():
     r = RestPace(rest_scale=1.0)
-    assert r.scale(100.0, 10.0) == 10.0              # nothing has moved yet: start-up
-    r.busy('/sim/sim_controller', 100.0, 100.0)      # at rest, still not armed
-    assert r.scale(100.5, 10.0) == 10.0
-    r.busy('/sim/sim_controller', 103.2, 101.0)      # a move until 103.2
+    assert r.scale(100.0, 10.0) == 1.0               # start-up: nothing moves, real time
+    r.busy('/sim/sim_controller', 100.0)             # at rest
+    assert r.scale(100.5, 10.0) == 1.0
+    r.busy('/sim/sim_controller', 103.2)             # a move until 103.2
     assert r.scale(101.0, 10.0) == 10.0
     assert r.scale(103.18, 10.0) == 10.0
     assert r.scale(103.2, 10.0) == 1.0               # it has ended: the robot thinks
     assert r.scale(103.2, 0.5) == 0.5                # never faster than the time scale
-    r.busy('/sim/sim_controller', 104.0, 103.5)
+    assert r.scale(103.2, 0.0) == 1.0                # unpaced clock: real time at rest
+    r.busy('/sim/other', 104.0)                      # any source keeps the world busy
     assert r.scale(103.5, 10.0) == 10.0
     assert not RestPace(rest_scale=0.0).resting(200.0)

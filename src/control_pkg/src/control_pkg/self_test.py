@@ -8,6 +8,7 @@ Node `self_test_server`
     - `topic`: messages arrive on <topic> within timeout seconds (cameras, point cloud); with
       `trigger`, a std_msgs/Empty is published there first and every second while waiting (a
       triggered camera takes a frame only when asked; a free-running one ignores it)
+    ~timeout_cap (0: none): no component waits longer than this (a quick self-test)
     - `status`: a diagnostic_msgs/DiagnosticStatus on <topic> has level OK (the motion controller
       enabled and fault-free, published latched by motion_pkg's motion_server)
     - `subscriber`: some node subscribes <topic> (the database takes the mission records)
@@ -68,6 +69,10 @@ class SelfTestServer(object):
         except ValueError as exc:
             rospy.logfatal('self_test_server: %s', exc)
             raise
+        cap = float(rospy.get_param('~timeout_cap', 0.0))
+        if cap > 0.0:
+            for comp in self.components:
+                comp['timeout'] = min(comp['timeout'], cap)
         self._master = rosgraph.Master(rospy.get_name())
         self._server = actionlib.SimpleActionServer('self_test', StartAction, execute_cb=self.execute,
                                                     auto_start=False)

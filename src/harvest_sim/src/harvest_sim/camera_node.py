@@ -10,12 +10,16 @@ stereo_image_proc, asserts that both camera_info frames are equal.
 ~kind "hand": the eye-in-hand camera on the cutting hand: hand_camera/image_raw and
 hand_camera/camera_info in frame hand_camera_optical.
 
+A held fruit is drawn where the frame's joint state puts the suction tcp (its hold offset comes
+with /sim/fruits), so it never lags the arm that moves it.
 Subscriptions: joint_states (remap to /sim/joint_states), fruits (remap to /sim/fruits),
 bumblebee2/image_trigger or hand_camera/image_trigger (std_msgs/Empty, ~triggered only).
 Publications: the images and camera_info above; sim/clock_hold (harvest_sim/ClockHold).
-The image shows the scene at the latest joint state; a frame is rendered only when the camera
-pose or the fruit changed, otherwise the cached frame is republished with a new stamp. Nothing is
-rendered or published while nobody subscribes (~always_publish false).
+The image shows the scene at the latest joint state and carries that joint state's stamp (not
+the time it is sent: harvest_sim.frame_timing); a frame is rendered only when the camera pose or
+the fruit changed, otherwise the cached frame goes out again with the newer joint state's stamp,
+and nothing goes out without a newer joint state. Nothing is rendered or published while nobody
+subscribes (~always_publish false).
 
 Free-running (default): one frame every 1/~rate of ROS time. Triggered (~triggered true, like a
 camera with a software trigger, or Gazebo's triggered camera): one frame per message on
@@ -46,6 +50,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Empty
 
 from harvest_sim import camera_model, names, render
+from harvest_sim.frame_timing import frame_stamp
 from harvest_sim.msg import ClockHold, SimFruitArray
 from harvest_sim.world_node import default_robot_config, load_scenario_param
 from motion_pkg.kinematics import RobotGeometry
@@ -56,6 +61,8 @@ KINDS = {
     'hand': dict(width=camera_model.HAND_WIDTH, height=camera_model.HAND_HEIGHT,
                  hfov_deg=camera_model.HAND_HFOV_DEG, rate=5.0),
 }
+#: frame the held fruit moves with (harvest_sim.world: rigidly, translation only)
+SUCTION_TCP = 'right_suction_tcp'
 #: joints that move each camera (a change re-renders)
 POSE_JOINTS = {'stereo': ('cart_joint', 'waist_joint'),
                'hand': ('cart_joint', 'waist_joint', 'left_lift_joint', 'left_boom_joint',
@@ -159,9 +166,9 @@ class SimCameraNode(object):
         self._render_lock = threading.RLock()     # one frame (and hold) at a time
         self._joints = {}
         self._joints_stamp = None
-        self._fruits = render.fruits_from_scenario(self.scenario)
-        self._fruit_key = None
+        self._fruits = [(f, None) for f in render.fruits_from_scenario(self.scenario)]
         self._rendered_key = None
+        self._last_stamp = None       # stamp of the last frame sent
         self._trigger = None          # ROS time of the latest trigger not served yet
         self._generation = 0          # counts trigger rounds (a stale fallback timer is ignored)
         rospy.Subscriber(names.JOINT_STATES, JointState, self._on_joints, queue_size=1)
@@ -200,13 +207,14 @@ class SimCameraNode(object):
                 continue          # collected fruit lie in the box, out of every view
             p = (m.position.x, m.position.y, m.position.z)
             cut = None if m.attached else np.array([m.cut_point.x, m.cut_point.y, m.cut_point.z])
-            fruits.append(render.RenderFruit(i, np.array(p), m.radius, m.ripeness,
-                                             self.scenario.fruits[i].pedicel_top, m.attached,
-                                             cut, m.held))
-        key = tuple((f.index, round(f.position[0], 4), round(f.position[1], 4),
-                     round(f.position[2], 4), f.attached) for f in fruits)
+            # a held fruit follows the suction tcp: drawn where the frame's joint state puts it
+            offset = np.array([m.hold_offset.x, m.hold_offset.y, m.hold_offset.z]) \
+                if m.held else None
+            fruits.append((render.RenderFruit(i, np.array(p), m.radius, m.ripeness,
+                                              self.scenario.fruits[i].pedicel_top, m.attached,
+                                              cut, m.held), offset))
         with self._lock:
-            self._fruits, self._fruit_key = fruits, key
+            self._fruits = fruits
 
     # -- triggered ------------------------------------------------------------------------
     def _on_trigger(self, _msg):
@@ -274,16 +282,21 @@ class SimCameraNode(object):
         with self._lock:
             joints = dict(self._joints)
             joints_stamp = self._joints_stamp
-            fruits, fkey = self._fruits, self._fruit_key
+            held_fruits = self._fruits
+        if joints_stamp is not None and joints_stamp.is_zero():
+            joints_stamp = None
+        # the frame shows the robot at this joint state: it carries its time (frame_timing)
+        stamp = frame_stamp(rospy.Time.now(), joints_stamp, self._last_stamp)
+        if stamp is None:
+            return
+        poses = self.geom.frame_transforms(joints)
+        tcp = poses[SUCTION_TCP]
+        fruits = [f if offset is None else f._replace(position=tcp[:3, 3] + tcp[:3, :3].dot(offset))
+                  for f, offset in held_fruits]
+        fkey = tuple((f.index, round(f.position[0], 4), round(f.position[1], 4),
+                      round(f.position[2], 4), f.attached) for f in fruits)
         key = (tuple(round(joints.get(j, 0.0), 5) for j in POSE_JOINTS[self.kind]), fkey)
-        stamp = rospy.Time.now()
-        if key != self._rendered_key or self.triggered:
-            # A new view shows the robot where it was at its joint state's time, not when the
-            # render ends: stamp it so (a pair taken while the cart stops must not look fresh).
-            if joints_stamp is not None and not joints_stamp.is_zero() and joints_stamp < stamp:
-                stamp = joints_stamp
         if key != self._rendered_key:
-            poses = self.geom.frame_transforms(joints)
             for e in self.eyes:
                 start = time.perf_counter()
                 img = self.renderer.render(e.camera, poses[e.frame], fruits,
@@ -294,6 +307,7 @@ class SimCameraNode(object):
                 e.frames += 1
                 e.image = image_msg(img, e.header_frame)
             self._rendered_key = key
+        self._last_stamp = stamp
         for e in self.eyes:
             e.image.header.stamp = stamp
             e.info.header.stamp = stamp

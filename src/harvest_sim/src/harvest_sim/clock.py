@@ -124,32 +124,30 @@ class RestPace(object):
 
     The simulated controller reports what is under way (axes moving, vacuum building up, shear
     closing) and when it ends. While something is under way the clock runs at its time scale;
-    once the world rests (the last end time has passed) the robot is deciding what to do next
-    (perception, planning, messaging) and the clock runs at `rest_scale` (1: real time), so
-    that computing costs the simulated time it costs on the wall clock, as on a real robot,
-    whatever the time scale: a mission's simulated timing is the same at 2x and at 20x. Before
-    the world has first moved (start-up, a self-test timing out) the time scale applies.
+    while the world rests, the robot is starting up or deciding what to do next (perception,
+    planning, messaging), and the clock runs at `rest_scale` (1: real time): the robot's
+    start-up and computing cost the simulated time they cost on the wall clock, as on a real
+    robot, whatever the time scale, and every timeout of the robot stack that runs while
+    nothing moves is a real-time timeout. Only physical processes are accelerated, so a
+    mission's simulated timing is the same at 2x and at 20x.
     """
 
     def __init__(self, rest_scale=1.0):
         self.rest_scale = float(rest_scale)
         self._busy = {}              # source -> simulated time until which it is busy
-        self.armed = False
 
     @property
     def enabled(self):
         return self.rest_scale > 0.0
 
-    def busy(self, source, until, t_now):
+    def busy(self, source, until):
         self._busy[source] = float(until)
-        if until > t_now + 1e-9:
-            self.armed = True
 
     def resting(self, t_now):
-        """Whether the world rests at simulated time t_now (after it has first moved)."""
-        if not self.enabled or not self.armed:
+        """Whether nothing is under way in the world at simulated time t_now."""
+        if not self.enabled:
             return False
-        return t_now >= max(self._busy.values()) - 1e-9
+        return not self._busy or t_now >= max(self._busy.values()) - 1e-9
 
     def scale(self, t_now, time_scale):
         """The pace of the clock at simulated time t_now."""

@@ -6,10 +6,10 @@ fast as the holds allow). The simulator's sensors hold the clock on sim/clock_ho
 (harvest_sim/ClockHold) until they have delivered what is due (harvest_sim.clock.ClockHolds):
 whatever the machine's load, a camera delivers its frames at their simulated times, and its
 rendering takes no simulated time. With ~rest_scale > 0 the clock runs at that pace (1: real
-time) while the simulated world rests (harvest_sim.clock.RestPace, fed by the simulated
-controller on sim/activity): the robot's computing between two motions costs the simulated
-time it costs on the wall clock, whatever the time scale, so a mission's simulated timing does
-not depend on ~time_scale. The clock is the time source, so it is paced by the wall clock: it
+time) while nothing is under way in the simulated world (harvest_sim.clock.RestPace, fed by the
+simulated controller on sim/activity): the robot's start-up and its computing between two
+motions cost the simulated time they cost on the wall clock, whatever the time scale, so a
+mission's simulated timing does not depend on ~time_scale. The clock is the time source, so it is paced by the wall clock: it
 waits on a threading.Condition until a tick is due and not held.
 Parameters: ~time_scale (10.0; 0: as fast as possible), ~step (0.02 s of simulated time per
 tick), ~start (100.0 s: simulated time of the first tick; nonzero so that nodes never see time
@@ -79,7 +79,7 @@ class SimClockNode(object):
     def _on_activity(self, msg):
         with self._cond:
             if msg.kind == SimActivity.BUSY:
-                self.rest.busy(msg.source, msg.until.to_sec(), self.schedule.sim_time())
+                self.rest.busy(msg.source, msg.until.to_sec())
             self._cond.notify_all()
 
     def _shutdown(self):

@@ -86,6 +86,8 @@ def fruit_array(world, stamp):
                      reachable=s.reachable, picking_point=s.picking_point,
                      attached=f.attached, held=f is world.held, cluster=s.cluster,
                      truss=s.truss)
+        if f is world.held:
+            m.hold_offset = _point(world.hold_offset)
         msg.fruits.append(m)
     return msg
 

@@ -1,0 +1,23 @@
+"""When a simulated camera frame may go out and with which stamp (pure logic, no rospy).
+
+A frame shows the robot at the joint state the camera rendered it from, so it carries that
+joint state's time, never the time it is sent: on a loaded machine the camera's joint states
+lag, and a frame stamped "now" that still showed the cart at the previous picking point would
+pass every freshness check of the robot stack (a scan after a move then located the previous
+point's fruit). A frame whose stamp would not be newer than the last one's is not sent: it
+would tell nothing new, or, if the view changed meanwhile (the world moved a fruit), two
+different pictures would share a stamp and stereo_image_proc's exact sync could pair the left
+eye of one with the right eye of the other.
+
+Times are any totally ordered values (rospy.Time, float seconds).
+"""
+
+
+def frame_stamp(now, joint_stamp, last_stamp=None):
+    """Stamp of a frame rendered now from the joint state stamped joint_stamp, or None when the
+    frame must not be sent. joint_stamp None (no joint state yet: a fixed camera, or a test that
+    never moves the robot) stamps the frame with now."""
+    stamp = now if joint_stamp is None or joint_stamp > now else joint_stamp
+    if last_stamp is not None and not stamp > last_stamp:
+        return None
+    return stamp
