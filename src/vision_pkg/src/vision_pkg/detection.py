@@ -64,7 +64,7 @@ DEFAULTS = {
     'sat_min': 100,             # HSV saturation floor of fruit skin (0..255; skin, wood: less)
     'val_min': 25,              # HSV value floor (0..255)
     # green-fruit colours (hue_max < hue <= green_hue_max) and surface
-    'green_hue_max': 50,
+    'green_hue_max': 44,        # leaves reach further into blue-green than fruit
     'green_sat_min': 55,
     'green_val_min': 45,
     'green_scale': 1.0,         # pass 2 (green fruit) runs at this fraction of the working size
