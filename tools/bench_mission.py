@@ -34,7 +34,8 @@ def run_one(name, time_scale, timeout):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--scenario', action='append', help='scenario names (repeatable)')
-    parser.add_argument('--time-scale', type=float, default=2.0)
+    parser.add_argument('--time-scale', type=float, default=20.0,
+                        help="sim.launch's time scale (the clock runs at real time while nothing moves)")
     parser.add_argument('--timeout', type=float, default=900.0, help='wall seconds per mission')
     args = parser.parse_args()
     weighted, fruit = 0.0, 0

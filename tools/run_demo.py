@@ -23,7 +23,7 @@ import time
 DEFAULT_TIMEOUT = 900.0   # wall seconds
 #: sim.launch's time scale (most simulated seconds per wall second; the clock runs at real time
 #: while nothing moves in the simulated world, see harvest_bringup/README.md)
-DEFAULT_TIME_SCALE = '10'
+DEFAULT_TIME_SCALE = '20'
 
 
 def free_port():

@@ -3,7 +3,7 @@
 import pytest
 
 import sim_fixtures  # noqa: F401  (puts harvest_sim on the path)
-from harvest_sim.clock import ClockHolds, ClockSchedule, RestPace
+from harvest_sim.clock import ClockHolds, ClockSchedule, RestPace, next_tick_ns
 
 
 def test_schedule_is_deterministic():
@@ -11,7 +11,7 @@ def test_schedule_is_deterministic():
     times = [s.advance() for _ in range(1000)]
     assert times[0] == pytest.approx(100.01)
     assert times[-1] == pytest.approx(110.0)
-    assert s.wall_offset() == pytest.approx(2.0)           # 10 s simulated in 2 s wall
+    assert s.wall_due(s.sim_time_ns()) == pytest.approx(2.0)    # 10 s simulated in 2 s wall
     assert s.achieved_scale(2.5) == pytest.approx(4.0)
     t = ClockSchedule(time_scale=5.0, step=0.01, start=100.0)
     assert [t.advance() for _ in range(1000)] == times
@@ -28,22 +28,26 @@ def test_time_scale_zero_is_unpaced():
     s = ClockSchedule(time_scale=0.0, step=0.05)
     for _ in range(10):
         s.advance(0.0)
-        assert s.wall_offset(s.tick + 1) == 0.0     # every tick due at once: only holds pace it
+        assert s.wall_offset() == 0.0               # every tick due at once: only holds pace it
 
 
 def test_tick_times_are_exact_nanoseconds():
     s = ClockSchedule(step=0.02, start=100.0)
-    assert s.sim_time_ns(26) == 100520000000        # float 100.52 truncates to ...519999999
-    assert s.sim_time_ns(5000) == 200000000000
+    for _ in range(26):
+        s.advance()
+    assert s.sim_time_ns() == 100520000000          # float 100.52 truncates to ...519999999
+    for _ in range(5000 - 26):
+        s.advance()
+    assert s.sim_time_ns() == 200000000000
 
 
 def test_a_late_tick_moves_the_anchor_instead_of_racing():
     s = ClockSchedule(time_scale=10.0, step=0.02, max_lag=0.05)
     s.advance(0.002)                                 # on time: due 0.002 s
-    assert s.wall_offset(2) == pytest.approx(0.004)
+    assert s.wall_offset() == pytest.approx(0.004)
     s.advance(1.0)                                   # tick 2 published 1 s late (held)
     assert s.reanchors == 1
-    assert s.wall_offset(3) == pytest.approx(1.002)  # the next tick keeps the time scale
+    assert s.wall_offset() == pytest.approx(1.002)   # the next tick keeps the time scale
     assert s.sim_time() == pytest.approx(100.04)     # times are unchanged: never skipped
     s.advance(1.003)                                 # 1 ms late: within max_lag, kept
     assert s.reanchors == 1
@@ -81,11 +85,25 @@ def test_set_scale_moves_the_anchor():
     s = ClockSchedule(time_scale=10.0, step=0.02)
     s.advance(0.002)
     s.set_scale(1.0, 0.002)                          # the world rests: real time
-    assert s.wall_offset(2) == pytest.approx(0.022)
+    assert s.wall_offset() == pytest.approx(0.022)
     s.advance(0.022)
     s.set_scale(10.0, 0.022)
-    assert s.wall_offset(3) == pytest.approx(0.024)
+    assert s.wall_offset() == pytest.approx(0.024)
     assert s.sim_time() == pytest.approx(100.04)
+
+
+def test_coarse_ticks_while_busy_land_on_the_end_of_the_motion_and_on_holds():
+    ms = 1000000
+    assert next_tick_ns(100000 * ms, 20 * ms) == 100020 * ms                  # regular
+    assert next_tick_ns(100000 * ms, 20 * ms, 100 * ms, 103210 * ms) == 100100 * ms
+    assert next_tick_ns(103200 * ms, 20 * ms, 100 * ms, 103210 * ms) == 103220 * ms  # >= step
+    assert next_tick_ns(103150 * ms, 20 * ms, 100 * ms, 103210 * ms) == 103210 * ms  # the end
+    assert next_tick_ns(103210 * ms, 20 * ms, 100 * ms, 103210 * ms) == 103230 * ms  # at rest
+    assert next_tick_ns(100000 * ms, 20 * ms, 100 * ms, 105000 * ms, 100050 * ms) == 100050 * ms
+    assert next_tick_ns(100000 * ms, 20 * ms, None, 105000 * ms) == 100020 * ms      # off
+    s = ClockSchedule(time_scale=10.0, step=0.02)
+    s.advance(0.01, 100100 * ms)
+    assert s.sim_time() == pytest.approx(100.1) and s.tick == 1
 
 
 def test_rest_pace_runs_at_real_time_only_while_the_world_rests():

@@ -27,8 +27,9 @@ COMPONENT_TYPES = ('action', 'topic', 'status', 'subscriber')
 #: wall seconds between checks of a ROS-time deadline while waiting for a message (the message
 #: itself wakes the wait at once)
 WAIT_SLICE = 0.05
-#: ROS seconds between two triggers of a `topic` component's camera
-TRIGGER_PERIOD = 1.0
+#: ROS seconds between two triggers of a `topic` component's camera (a trigger sent before the
+#: camera's subscription is connected is lost; the first one waits for it)
+TRIGGER_PERIOD = 0.25
 
 
 def parse_components(raw):
@@ -133,14 +134,16 @@ class SelfTestServer(object):
         return results
 
     @staticmethod
-    def _wait_ros(event, timeout, tick=None):
-        """Wait for a threading.Event up to `timeout` seconds of ROS time; call tick() at once
-        and every TRIGGER_PERIOD ROS seconds while waiting. True when the event was set."""
+    def _wait_ros(event, timeout, tick=None, tick_ready=None):
+        """Wait for a threading.Event up to `timeout` seconds of ROS time; call tick() as soon
+        as tick_ready() (if given) and then every TRIGGER_PERIOD ROS seconds while waiting.
+        True when the event was set."""
         end = rospy.get_rostime() + rospy.Duration.from_sec(timeout)
         next_tick = rospy.get_rostime()
         while not rospy.is_shutdown():
             now = rospy.get_rostime()
-            if tick is not None and now >= next_tick:
+            if tick is not None and now >= next_tick and (tick_ready is None or tick_ready() or
+                                                          now >= next_tick + rospy.Duration(1)):
                 tick()
                 next_tick = now + rospy.Duration.from_sec(TRIGGER_PERIOD)
             if event.wait(WAIT_SLICE):
@@ -160,7 +163,8 @@ class SelfTestServer(object):
                 trigger = rospy.Publisher(comp['trigger'], Empty, queue_size=1)
             try:
                 if self._wait_ros(got, comp['timeout'],
-                                  (lambda: trigger.publish(Empty())) if trigger else None):
+                                  (lambda: trigger.publish(Empty())) if trigger else None,
+                                  (lambda: trigger.get_num_connections() > 0) if trigger else None):
                     return True, ''
             finally:
                 sub.unregister()

@@ -340,7 +340,8 @@ def _measure_mission(launch, wall0, wall_limit, profile):
     from std_msgs.msg import String
     rospy.init_node('bench_sim', disable_signals=True)
     lock = threading.Lock()
-    st = {'first': None, 'last': None, 'summary': None, 'frames': {}}
+    st = {'first': None, 'last': None, 'summary': None, 'frames': {},
+          'split': {'fast': 0.0, 'rest': 0.0, 'held': 0.0}}
     done = threading.Event()
 
     def on_clock(msg):
@@ -348,6 +349,12 @@ def _measure_mission(launch, wall0, wall_limit, profile):
             now = (time.time(), msg.clock.to_sec())
             if st['first'] is None:
                 st['first'] = now
+            elif st['summary'] is None:
+                # where the wall time goes: fast ticks (something moves), ticks at about real
+                # time (the world rests: the robot starts or thinks), long gaps (a camera holds)
+                dw, ds = now[0] - st['last'][0], now[1] - st['last'][1]
+                kind = 'fast' if ds > 2.0 * dw else ('held' if dw > 3.0 * ds else 'rest')
+                st['split'][kind] += dw
             st['last'] = now
 
     def on_summary(msg):
@@ -377,8 +384,9 @@ def _measure_mission(launch, wall0, wall_limit, profile):
     cpu1 = (time.time(), _cpu_by_node(launch.pid))
     with lock:
         first, end, summary = st['first'], st['end'], st['summary']
+        split = dict(st['split'])
     res = {'summary': summary, 'wall': end[0] - first[0], 'sim': end[1] - first[1],
-           'wall_total': end[0] - wall0}
+           'wall_total': end[0] - wall0, 'split': split}
     res['speed'] = res['sim'] / res['wall'] if res['wall'] > 0 else 0.0
     from harvest_sim.srv import GetSimSummary
     try:
@@ -449,12 +457,16 @@ def run_line(scale, res):
     cycle = s.get('mean_cycle_time')
     cycle = 'n/a' if cycle is None or (isinstance(cycle, float) and math.isnan(cycle)) \
         else '%.1f' % cycle
-    return ('time scale %g: speed reached %.2f (%.0f s sim in %.1f s wall; launch to summary '
-            '%.1f s); mission %s, picked %s of %s ripe reachable (truth: collected %s, dropped '
-            '%s, damaged %s), mean cycle %s s/fruit (sim)' % (
-                scale, res['speed'], res['sim'], res['wall'], res['wall_total'], s['outcome'],
-                s['picked'], truth.get('ripe_reachable', '?'), truth.get('collected', '?'),
-                truth.get('dropped', '?'), truth.get('damaged', '?'), cycle))
+    split = res.get('split', {})
+    return ('time scale %g: speed reached %.2f (%.0f s sim in %.1f s wall: %.1f s moving, %.1f s '
+            'at rest, %.1f s held by cameras; launch to summary %.1f s); mission %s, picked %s '
+            'of %s ripe reachable (truth: collected %s, dropped %s, damaged %s), mean cycle %s '
+            's/fruit (sim)' % (
+                scale, res['speed'], res['sim'], res['wall'], split.get('fast', 0.0),
+                split.get('rest', 0.0), split.get('held', 0.0), res['wall_total'],
+                s['outcome'], s['picked'], truth.get('ripe_reachable', '?'),
+                truth.get('collected', '?'), truth.get('dropped', '?'),
+                truth.get('damaged', '?'), cycle))
 
 
 # ---------------------------------------------------------------------- simulator alone

@@ -1,8 +1,8 @@
 """Deterministic simulated clock schedule and its holds (pure logic, no rospy).
 
-Tick k carries simulated time start + k * step, whatever the machine's load: a late tick is
-published late (the achieved time scale drops), never skipped, so the sequence of times is
-deterministic.
+The clock advances in regular steps, whatever the machine's load: a late tick is published
+late (the achieved time scale drops), never skipped. While only motion is simulated (the world
+is busy until a known time) it may advance in coarser steps that land where the motion ends.
 
 Pacing: with time_scale > 0 a tick is due time_scale times faster than real time, counted from
 an anchor. When the clock falls behind (a hold, a loaded machine) by more than `max_lag` wall
@@ -21,6 +21,8 @@ INF = float('inf')
 
 
 class ClockSchedule(object):
+    """The clock's simulated time (integer nanoseconds) and its pacing against the wall clock."""
+
     def __init__(self, time_scale=5.0, step=0.02, start=100.0, max_lag=0.05):
         if not time_scale >= 0.0:
             raise ValueError('time_scale must be >= 0 (0: as fast as possible), got %r'
@@ -31,51 +33,73 @@ class ClockSchedule(object):
             raise ValueError('start must be >= 0 s, got %r' % (start,))
         self.time_scale = float(time_scale)
         self.step = float(step)
+        self.step_ns = int(round(step * 1e9))
         self.start = float(start)
+        self.start_ns = int(round(start * 1e9))
         self.max_lag = float(max_lag)
         self.tick = 0
-        self._anchor = (0, 0.0)      # (tick, wall offset) the pacing counts from
+        self.t_ns = self.start_ns
+        self._anchor = (self.t_ns, 0.0)      # (simulated ns, wall offset) pacing counts from
         self.reanchors = 0
 
-    def sim_time(self, tick=None):
-        """Simulated time (s) of a tick (default: the current one)."""
-        return self.start + (self.tick if tick is None else tick) * self.step
+    def sim_time(self):
+        """Current simulated time (s)."""
+        return self.t_ns * 1e-9
 
-    def sim_time_ns(self, tick=None):
-        """Simulated time of a tick in integer nanoseconds (exact: no float truncation, so a
+    def sim_time_ns(self):
+        """Current simulated time in integer nanoseconds (exact: no float truncation, so a
         timer due at a multiple of the step fires on its tick)."""
-        return int(round(self.sim_time(tick) * 1e9))
+        return self.t_ns
 
-    def wall_offset(self, tick=None):
-        """Wall seconds after the schedule's start at which a tick is due (0 if unpaced)."""
-        tick = self.tick if tick is None else tick
+    def wall_due(self, t_ns):
+        """Wall seconds after the schedule's start at which simulated time t_ns is due (0 when
+        unpaced)."""
         if self.time_scale == 0.0:
             return 0.0
-        return self._anchor[1] + (tick - self._anchor[0]) * self.step / self.time_scale
+        return self._anchor[1] + (t_ns - self._anchor[0]) * 1e-9 / self.time_scale
 
-    def advance(self, wall_elapsed=None):
-        """Move to the next tick; returns its simulated time. `wall_elapsed` (wall seconds since
-        the start, when the tick is actually published) moves the pacing anchor to this tick
-        when it is more than max_lag late."""
+    def wall_offset(self):
+        """Wall seconds after the start at which the next regular tick is due."""
+        return self.wall_due(self.t_ns + self.step_ns)
+
+    def advance(self, wall_elapsed=None, to_ns=None):
+        """Move to the next tick (the regular step, or simulated time to_ns); returns its
+        simulated time. `wall_elapsed` (wall seconds since the start, when the tick is actually
+        published) moves the pacing anchor to this tick when it is more than max_lag late."""
+        self.t_ns = self.t_ns + self.step_ns if to_ns is None else int(to_ns)
         self.tick += 1
         if wall_elapsed is not None and self.time_scale > 0.0 and \
-                wall_elapsed - self.wall_offset() > self.max_lag:
-            self._anchor = (self.tick, wall_elapsed)
+                wall_elapsed - self.wall_due(self.t_ns) > self.max_lag:
+            self._anchor = (self.t_ns, wall_elapsed)
             self.reanchors += 1
         return self.sim_time()
 
     def set_scale(self, time_scale, wall_elapsed):
-        """Change the pace from the current tick on (0: unpaced)."""
+        """Change the pace from the current time on (0: unpaced)."""
         time_scale = float(time_scale)
         if time_scale != self.time_scale:
             self.time_scale = time_scale
-            self._anchor = (self.tick, wall_elapsed)
+            self._anchor = (self.t_ns, wall_elapsed)
 
     def achieved_scale(self, wall_elapsed):
         """Simulated seconds per wall second so far."""
         if wall_elapsed <= 0.0:
             return 0.0
-        return self.tick * self.step / wall_elapsed
+        return (self.t_ns - self.start_ns) * 1e-9 / wall_elapsed
+
+
+def next_tick_ns(t_ns, step_ns, busy_step_ns=None, busy_until_ns=None, hold_ns=None):
+    """Simulated time of the next tick: one regular step, or, while something is under way in
+    the world (busy_until_ns later than now), one busy step (coarser: fewer ticks while only
+    motion is simulated) that lands exactly where the motion ends; never past the next hold of a
+    sensor (hold_ns), so a frame due then is taken at its time."""
+    step = step_ns
+    if busy_step_ns and busy_until_ns is not None and busy_until_ns > t_ns:
+        step = max(step_ns, min(busy_step_ns, busy_until_ns - t_ns))
+    nxt = t_ns + step
+    if hold_ns is not None and t_ns < hold_ns < nxt:
+        nxt = hold_ns
+    return nxt
 
 
 class ClockHolds(object):
@@ -115,6 +139,11 @@ class ClockHolds(object):
             out.append(holder)
         return sorted(out)
 
+    def next_limit(self, t_now):
+        """Earliest hold limit later than t_now (None: none)."""
+        ahead = [u for u in self._holds.values() if u > t_now + 1e-6]
+        return min(ahead) if ahead else None
+
     def __len__(self):
         return len(self._holds)
 
@@ -142,6 +171,10 @@ class RestPace(object):
 
     def busy(self, source, until):
         self._busy[source] = float(until)
+
+    def busy_until(self):
+        """Latest end of what is under way (None: nothing reported yet)."""
+        return max(self._busy.values()) if self._busy else None
 
     def resting(self, t_now):
         """Whether nothing is under way in the world at simulated time t_now."""

@@ -15,7 +15,9 @@ Parameters: ~time_scale (10.0; 0: as fast as possible), ~step (0.02 s of simulat
 tick), ~start (100.0 s: simulated time of the first tick; nonzero so that nodes never see time
 zero, which ROS treats as "no time yet"), ~hold_timeout (10 wall seconds: a hold that stops the
 clock longer is dropped with a warning), ~rest_scale (0: off; the pace while the world rests,
-never above ~time_scale).
+never above ~time_scale), ~busy_step (0: off; simulated seconds per tick while only motion is
+under way in the world: coarser ticks, each landing no later than the motion's end or a
+sensor's next frame).
 Subscriptions: sim/clock_hold (harvest_sim/ClockHold), sim/activity (harvest_sim/SimActivity).
 Publications: /clock.
 """
@@ -28,7 +30,7 @@ import rospy
 from rosgraph_msgs.msg import Clock
 
 from harvest_sim import names
-from harvest_sim.clock import ClockHolds, ClockSchedule, RestPace
+from harvest_sim.clock import ClockHolds, ClockSchedule, RestPace, next_tick_ns
 from harvest_sim.msg import ClockHold, SimActivity
 
 #: wall seconds between achieved-speed debug lines
@@ -50,6 +52,8 @@ class SimClockNode(object):
             raise rospy.ROSInitException(str(e))
         self.holds = ClockHolds(rospy.get_param('~hold_timeout', 10.0))
         self.time_scale = self.schedule.time_scale
+        busy_step = float(rospy.get_param('~busy_step', 0.0))
+        self.busy_step_ns = int(round(busy_step * 1e9)) if busy_step > 0.0 else None
         self.rest = RestPace(rospy.get_param('~rest_scale', 0.0))
         self._cond = threading.Condition()
         self._stop = False
@@ -87,9 +91,10 @@ class SimClockNode(object):
             self._stop = True
             self._cond.notify_all()
         if self.rest.enabled:
-            rospy.loginfo('sim_clock: %.0f %% of the simulated time at rest (paced at %.1f)',
-                          100.0 * self._rest_sim / max(self.schedule.tick * self.schedule.step,
-                                                       1e-9), self.rest.rest_scale)
+            span = (self.schedule.t_ns - self.schedule.start_ns) * 1e-9
+            rospy.loginfo('sim_clock: %.0f s simulated in %d ticks, %.0f s of it at rest (paced '
+                          'at %.1f)', span, self.schedule.tick, self._rest_sim,
+                          self.rest.rest_scale)
 
     def _run(self):
         s = self.schedule
@@ -103,23 +108,29 @@ class SimClockNode(object):
             with self._cond:
                 while not self._stop:
                     now = time.monotonic()
-                    blocking = self.holds.blocking(s.sim_time(), now)
+                    t = s.sim_time()
+                    blocking = self.holds.blocking(t, now)
                     self._warn_expired()
                     if blocking:
                         wait_start = now
                         self._cond.wait(0.5)
                         held_wall += time.monotonic() - wait_start
                         continue
-                    s.set_scale(self.rest.scale(s.sim_time(), self.time_scale), now - wall0)
-                    delay = wall0 + s.wall_offset(s.tick + 1) - now
+                    s.set_scale(self.rest.scale(t, self.time_scale), now - wall0)
+                    busy = self.rest.busy_until()
+                    hold = self.holds.next_limit(t)
+                    t_next = next_tick_ns(s.sim_time_ns(), s.step_ns, self.busy_step_ns,
+                                          None if busy is None else int(round(busy * 1e9)),
+                                          None if hold is None else int(round(hold * 1e9)))
+                    delay = wall0 + s.wall_due(t_next) - now
                     if delay <= 0:
                         break
                     self._cond.wait(delay)
                 if self._stop:
                     return
             if s.time_scale != self.time_scale:
-                self._rest_sim += s.step
-            s.advance(time.monotonic() - wall0)
+                self._rest_sim += (t_next - s.sim_time_ns()) * 1e-9
+            s.advance(time.monotonic() - wall0, t_next)
             msg.clock = _time(s.sim_time_ns())
             try:
                 self.pub.publish(msg)
@@ -129,9 +140,9 @@ class SimClockNode(object):
                 report += REPORT_PERIOD
                 elapsed = time.monotonic() - wall0
                 rospy.logdebug('sim_clock: achieved time scale %.2f; held by sensors %.0f %% of '
-                               'the wall time; %.0f s of simulated time at rest',
+                               'the wall time; %.0f s of simulated time at rest, %d ticks',
                                s.achieved_scale(elapsed), 100.0 * held_wall / elapsed,
-                               self._rest_sim)
+                               self._rest_sim, s.tick)
 
     def _warn_expired(self):
         while self.holds.expired:
