@@ -22,7 +22,7 @@ Made to hold on real photographs as well as on harvest_sim's renders. For one BG
      at ~green_scale of the working size) is a fruit only when its shape and surface say so:
      a part no larger than ~max_area_ratio times its inscribed circle (leaf strips are
      longer), an outline that one circle follows (median misfit <= ~max_residual_green), a
-     well filled disc (~min_fill_green), and a brightness edge along most of the circle
+     well filled disc (~min_fill_outline), and a brightness edge along most of the circle
      (~min_edge_support): a smooth, shaded sphere ends in an edge all round, a leaf's outline
      does not follow a circle;
   5. ripeness from the skin's colour on the balanced image: every skin pixel's hue (highlights,
@@ -71,10 +71,11 @@ DEFAULTS = {
     'edge_min': 0.12,           # gradient / brightness of an outline edge
     'min_edge_support': 0.8,    # fraction of a green fruit's circle that is such a radial edge
     'max_residual_green': 0.03,   # outline misfit (median / r) of a green fruit's circle
+    'min_fill_outline': 0.8,    # ... and the share of that circle its region fills
     'max_area_ratio': 2.0,      # a green part's area / the area of its inscribed circle
     # shape
     'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
-    'min_fill_green': 0.8,      # same for green-coloured fruit (stricter: leaves are green)
+    'min_fill_green': 0.6,      # same for the strict pass and green-graded fruit
     'min_inside': 0.85,         # fraction of the part's pixels inside its fitted circle
     'peak_separation': 0.75,    # NMS: a peak closer than this x the stronger radius is merged
     'single_fit_residual_px': 0.9,  # a region whose outline fits one circle within this median
@@ -556,7 +557,7 @@ class TomatoDetector(object):
             return True
         residual = circle[3] if len(circle) > 3 else 1.0
         return support >= p['min_edge_support'] and residual <= p['max_residual_green'] and \
-            fill >= p['min_fill_green']
+            fill >= p['min_fill_outline']
 
     def edge_profile(self, frame, cx, cy, r, samples=48):
         """Strongest radial edge (relative gradient) within +-2 px of each of `samples` points
