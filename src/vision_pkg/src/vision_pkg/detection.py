@@ -73,6 +73,7 @@ DEFAULTS = {
     'max_residual_green': 0.03,   # outline misfit (median / r) of a green fruit's circle
     'min_fill_outline': 0.8,    # ... and the share of that circle its region fills
     'max_area_ratio': 2.0,      # a green part's area / the area of its inscribed circle
+    'max_green_region': 0.3,    # strict-pass regions up to this x the largest fruit's area
     # shape
     'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
     'min_fill_green': 0.6,      # same for the strict pass and green-graded fruit
@@ -502,6 +503,8 @@ class TomatoDetector(object):
         if need is not None:
             needed = np.bincount(labels[need > 0], minlength=count)[1:]
             ok &= needed >= 0.1 * areas
+            # a green region larger than a few of the largest fruit is canopy
+            ok &= areas <= float(self.params['max_green_region']) * math.pi * r_max * r_max
         order = np.flatnonzero(ok)
         order = order[np.argsort(-areas[order], kind='stable')][:int(self.params['max_regions'])]
         detections = []
