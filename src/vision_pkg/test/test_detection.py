@@ -241,3 +241,13 @@ def test_dynamic_reconfigure_defaults_are_the_detector_defaults():
     assert {'hue_max', 'hue_wrap', 'sat_min', 'val_min', 'min_fill', 'min_fill_green'} <= shared
     for key in shared:
         assert params[key] == pytest.approx(detection.DEFAULTS[key]), key
+
+
+def test_lab_hue_angle_agrees_with_opencv():
+    for bgr in ((30, 60, 200), (60, 150, 125), (20, 200, 240), (200, 100, 50), (90, 90, 90)):
+        lab = cv2.cvtColor((np.array(bgr, np.float32) / 255.0).reshape(1, 1, 3),
+                           cv2.COLOR_BGR2LAB).reshape(3)
+        if math.hypot(lab[1], lab[2]) < 1.0:
+            continue                     # grey: no hue to compare
+        assert detection.lab_hue_angle(bgr) == pytest.approx(
+            math.degrees(math.atan2(lab[2], lab[1])), abs=0.5)

@@ -206,6 +206,21 @@ def _support(circle, xs, ys, tol=1.0, rel=0.03):
     return int(np.count_nonzero(np.abs(np.hypot(xs - cx, ys - cy) - r) <= tol + rel * r))
 
 
+#: linear sRGB -> CIE XYZ (D65), rows X, Y, Z, divided by the D65 white point
+_RGB_TO_XYZ_WHITE = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722],
+                              [0.0193, 0.1192, 0.9505]]) / np.array([[0.95047], [1.0], [1.08883]])
+
+
+def lab_hue_angle(bgr):
+    """CIE Lab hue angle [deg] of one sRGB colour given as B, G, R in 0..255 (diagnostics;
+    computed here: OpenCV's Lab conversion sets up tables on its first call, ~0.1 s)."""
+    rgb = np.clip(np.asarray(bgr, dtype=np.float64)[::-1] / 255.0, 0.0, 1.0)
+    linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    t = _RGB_TO_XYZ_WHITE.dot(linear)
+    f = np.where(t > 0.008856, np.cbrt(t), 7.787 * t + 16.0 / 116.0)
+    return math.degrees(math.atan2(200.0 * (f[1] - f[2]), 500.0 * (f[0] - f[1])))
+
+
 _TRIPLES = {}
 
 
@@ -428,11 +443,7 @@ class TomatoDetector(object):
         mean = bgr_pixels.astype(np.float64).mean(axis=0)
         total = float(mean.sum())
         chroma = float(mean[2]) / total if total > 0 else 0.0
-        # CIE Lab hue angle of the mean colour (diagnostics; OpenCV's float Lab, which has no
-        # per-call table set-up, unlike the 8-bit conversion)
-        lab = cv2.cvtColor((mean / 255.0).astype(np.float32).reshape(1, 1, 3),
-                           cv2.COLOR_BGR2LAB).reshape(3)
-        return min(max(score, 0.0), 1.0), chroma, math.degrees(math.atan2(lab[2], lab[1]))
+        return min(max(score, 0.0), 1.0), chroma, lab_hue_angle(mean)
 
     def score_of(self, bgr_pixels):
         """(score, red chromaticity, Lab hue angle [deg]) of an Nx3 uint8 BGR skin sample
