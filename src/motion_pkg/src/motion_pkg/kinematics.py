@@ -125,8 +125,8 @@ def segment_distance(p1, q1, p2, q2):
     a, e, f = d1.dot(d1), d2.dot(d2), d2.dot(r)
     eps = 1e-15
     if a <= eps and e <= eps:
-        return float(np.linalg.norm(r))
-    if a <= eps:
+        s, t = 0.0, 0.0                # two (near-)points: the endpoint distances below decide
+    elif a <= eps:
         s, t = 0.0, min(max(f / e, 0.0), 1.0)
     else:
         c = d1.dot(r)
@@ -135,8 +135,10 @@ def segment_distance(p1, q1, p2, q2):
         else:
             b = d1.dot(d2)
             denom = a * e - b * b
-            # parallel segments have denom ~ 0 relative to a*e (absolute tests fail for short ones)
-            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 1e-12 * a * e else 0.0
+            # parallel segments have denom 0: any other pair of directions gets the closed form
+            # (near-parallel segments may cross), whose clamped s and t always name real points
+            # of both segments; the endpoint distances below cover the parallel case exactly
+            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 0.0 else 0.0
             t = (b * s + f) / e
             if t < 0.0:
                 t, s = 0.0, min(max(-c / a, 0.0), 1.0)
