@@ -74,6 +74,11 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
             if time.time() > deadline or launch.poll() is not None:
                 raise RuntimeError('roslaunch did not start a master; see %s' % log_path)
             time.sleep(0.2)   # harness polling the master from outside ROS; not node code
+        # this node must follow /clock like the others: /use_sim_time is set by the launch
+        while not rosgraph.Master('/harvest_demo').hasParam('/use_sim_time'):
+            if time.time() > deadline or launch.poll() is not None:
+                raise RuntimeError('the launch set no /use_sim_time; see %s' % log_path)
+            time.sleep(0.05)  # harness polling the master from outside ROS; not node code
         if not rospy.core.is_initialized():
             rospy.init_node('harvest_demo', anonymous=True, disable_signals=True)
         sub = rospy.Subscriber('/mission/summary', String, on_summary)
