@@ -353,7 +353,7 @@ def _measure_mission(launch, wall0, wall_limit, profile):
                 # where the wall time goes: fast ticks (something moves), ticks at about real
                 # time (the world rests: the robot starts or thinks), long gaps (a camera holds)
                 dw, ds = now[0] - st['last'][0], now[1] - st['last'][1]
-                kind = 'fast' if ds > 2.0 * dw else ('held' if dw > 3.0 * ds else 'rest')
+                kind = 'fast' if ds > 1.5 * dw else ('held' if dw > 3.0 * ds else 'rest')
                 st['split'][kind] += dw
             st['last'] = now
 
