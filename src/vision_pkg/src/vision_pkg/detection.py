@@ -72,6 +72,8 @@ DEFAULTS = {
     'min_edge_support': 0.8,    # fraction of a green fruit's circle that is such a radial edge
     'max_residual_green': 0.03,   # outline misfit (median / r) of a green fruit's circle
     'min_fill_outline': 0.8,    # ... and the share of that circle its region fills
+    'outline_gate_score': 0.15,  # ... for strict-pass candidates graded below this (leaf green;
+                                 # yellow-green fruit near the turning stage are not leaf-coloured)
     'max_area_ratio': 2.0,      # a green part's area / the area of its inscribed circle
     'max_green_region': 0.3,    # strict-pass regions up to this x the largest fruit's area
     # shape
@@ -718,7 +720,7 @@ class TomatoDetector(object):
                 p['min_fill']
             if inside < p['min_inside'] or fill < min_fill:
                 continue
-            if strict and score < STAGE_THRESHOLDS[0] and not self._round_fruit_surface(
+            if strict and score < p['outline_gate_score'] and not self._round_fruit_surface(
                     frame, cx + ox, cy + oy, r, hsv_px, circle, fill, inside, score):
                 continue          # green, but not round or no edge all round: a leaf
             x0 = max(int(math.floor(cx - r)) - 1, 0)
