@@ -13,7 +13,7 @@ setup:
 build: setup
 
 demo: setup
-	@tools/demo.sh
+	@tools/ws_run.sh tools/run_demo.py
 
 test: setup
 	@tools/run_tests.sh
@@ -23,7 +23,7 @@ lint: setup
 
 # every mission scenario beside two CPU hogs (stress-ng); one line per scenario
 load-check: setup
-	@tools/load_check.sh
+	@tools/ws_run.sh tools/load_check.py
 
 docker-base:
 	@docker/make_base.sh

@@ -277,10 +277,10 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
 class _Frame(object):
     """The working images of one detect() call."""
 
-    __slots__ = ('small', 'hsv', 'scale', 'green', 'fill', 'gx', 'gy')
+    __slots__ = ('small', 'hsv', 'scale', 'fill', 'gx', 'gy')
 
-    def __init__(self, small, hsv, scale, green):
-        self.small, self.hsv, self.scale, self.green = small, hsv, scale, green
+    def __init__(self, small, hsv, scale):
+        self.small, self.hsv, self.scale = small, hsv, scale
         self.fill = self.gx = self.gy = None
 
 
@@ -393,11 +393,6 @@ class TomatoDetector(object):
                             cv2.inRange(v, int(p['green_val_min']), 255)))
         return ripe, green
 
-    def colour_mask(self, hsv):
-        """Fruit-colour pixels of any stage (ripe or green-fruit colours)."""
-        ripe, green = self.colour_masks(hsv)
-        return cv2.bitwise_or(ripe, green)
-
     @staticmethod
     def gradient_maps(gray):
         """(gx, gy) float32 brightness gradient of a grey image relative to the local mean
@@ -472,7 +467,7 @@ class TomatoDetector(object):
         r_min = p['min_radius_px'] * scale
         r_max = p['max_radius_px'] * scale
         ripe, green = self.colour_masks(hsv)
-        frame = _Frame(small, hsv, scale, green)
+        frame = _Frame(small, hsv, scale)
         # pass 1: ripe colours (red, orange, pink; the coloured part of turning fruit)
         ripe = self._clean(ripe)
         bridged = self._bridge(ripe, hsv, green)
@@ -494,7 +489,7 @@ class TomatoDetector(object):
                 ripe2 = self._clean(ripe2, factor)
             else:
                 factor, small2, hsv2, ripe2, green2 = 1.0, small, hsv, ripe, green
-            frame2 = _Frame(small2, hsv2, scale * factor, green2)
+            frame2 = _Frame(small2, hsv2, scale * factor)
             frame2.gx, frame2.gy = self.gradient_maps(cv2.cvtColor(small2, cv2.COLOR_BGR2GRAY))
             both = cv2.bitwise_or(ripe2, green2)
             for det in self._candidates(self._clean(both, factor), frame2, r_min * factor,
