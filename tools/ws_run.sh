@@ -5,6 +5,8 @@ set -eo pipefail
 ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 export PATH="$ROOT/.venv/bin:/usr/bin:/bin:$PATH"
 cd "$ROOT"
+ARGS=("$@")
+set --                # setup.bash reads the positional parameters: give it none
 # shellcheck disable=SC1091
 source devel/setup.bash
-exec python "$@"
+exec python "${ARGS[@]}"
