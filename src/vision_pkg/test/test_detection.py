@@ -251,3 +251,24 @@ def test_lab_hue_angle_agrees_with_opencv():
             continue                     # grey: no hue to compare
         assert detection.lab_hue_angle(bgr) == pytest.approx(
             math.degrees(math.atan2(lab[2], lab[1])), abs=0.5)
+
+
+@pytest.mark.parametrize('ripeness', [0.27, 0.32, 0.05])
+@pytest.mark.parametrize('radius, drop', [(0.036, 0.025), (0.04, 0.03)])
+def test_fruit_in_front_of_a_red_one_is_found_beside_it(ripeness, radius, drop):
+    # a turning or green fruit hanging in front of and just above a red one (touching it, as
+    # on one truss): one region of fruit colour in pass 2, in which the red fruit's circle,
+    # found in pass 1, holds the other fruit's centre. Both must be found, each once.
+    red_r = 0.033
+    depth = math.sqrt((red_r + radius + 0.001) ** 2 - drop ** 2)      # spheres just apart
+    fruits = [scene.Fruit(0.0, 0.0, 0.49 + depth, red_r, 0.95),
+              scene.Fruit(0.003, -drop, 0.49, radius, ripeness)]
+    for seed in range(3):
+        image, _, _ = scene.render(fruits, backdrop_depth=0.95, seed=seed)
+        dets = TomatoDetector().detect(image)
+        for fruit in fruits:
+            u, v = scene.project(fruit.centre)
+            matches = [d for d in dets if math.hypot(d.u - u, d.v - v) < 0.3 * d.radius_px]
+            assert len(matches) == 1, (seed, fruit.ripeness, dets)
+            assert matches[0].stage == stage_of(fruit.ripeness), (seed, fruit.ripeness, matches)
+        assert len(dets) == 2, (seed, dets)

@@ -138,7 +138,8 @@ class MissionPlanTest(unittest.TestCase):
         self.assertEqual(w.points, planned, 'picking points visited')
         self.assertEqual(s['points_visited'], len(planned), s)
 
-        fruits = rospy.wait_for_message('/sim/fruits', SimFruitArray, timeout=30.0).fruits
+        fruits = w.fruits_at_rest()
+        self.assertIsNotNone(fruits, 'no /sim/fruits')
         for f in fruits:
             if f.picking_point in planned and f.ripe and f.reachable:
                 self.assertEqual(f.state, SimFruit.COLLECTED, '%s at planned point %d: %s'

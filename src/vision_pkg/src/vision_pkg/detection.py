@@ -90,6 +90,8 @@ DEFAULTS = {
     'bridge_px': 15,            # larger closing of ripe colours through green or dark pixels only
     'bridge_val_max': 90,       # ... dark = HSV value up to this
     'merge_score_diff': 0.25,   # fragments of one fruit: at most this ripeness-score apart
+    'max_shared_part': 0.5,     # a strict-pass fruit with more of its visible part inside the
+                                # circle of a fruit of pass 1 is the rest of that fruit
     'max_regions': 30,          # regions examined per pass (largest first)
     'max_peaks': 6,             # fruit hypotheses per region
     # ripeness calibration: per-pixel wrapped hue (OpenCV units, red = 0) -> ripeness knots
@@ -492,13 +494,42 @@ class TomatoDetector(object):
             frame2 = _Frame(small2, hsv2, scale * factor)
             frame2.gx, frame2.gy = self.gradient_maps(cv2.cvtColor(small2, cv2.COLOR_BGR2GRAY))
             both = cv2.bitwise_or(ripe2, green2)
+            # the visible parts of the fruit found in pass 1 are taken out first: a turning
+            # fruit touching a red one would otherwise join it in one region, often with one
+            # distance-transform peak, and their joint circle would be dropped as a duplicate
+            # of the red fruit (parts, not circles: a red fruit behind keeps its full circle)
+            self._erase_parts(both, found, factor)
             for det in self._candidates(self._clean(both, factor), frame2, r_min * factor,
                                         r_max * factor, strict=True, need=green2):
-                if all(math.hypot(det.u - o.u, det.v - o.v) > 0.8 * max(det.radius_px,
-                                                                         o.radius_px)
-                       for o in found):
+                # the rest of a fruit already found (its yellow-green shoulder, say) lies
+                # mostly inside that fruit's circle; a fruit in front of or behind it does not
+                if all(_share_inside(det, o) <= p['max_shared_part'] for o in found):
                     found.append(det)
         return self._merge_fragments(found)
+
+    @staticmethod
+    def _erase_parts(mask, detections, factor):
+        """Clear the visible part (mask crop, grown by a pixel) of each detection of the
+        working image from a mask at `factor` times the working size, in place."""
+        kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+        height, width = mask.shape
+        for det in detections:
+            if det.mask is None:
+                continue
+            # padded by a pixel so that the growth may leave the crop
+            part = cv2.dilate(np.pad(det.mask.astype(np.uint8), 1), kernel)
+            x0, y0 = det.mask_origin[0] - 1, det.mask_origin[1] - 1
+            if factor != 1.0:
+                part = cv2.resize(part, None, fx=factor, fy=factor,
+                                  interpolation=cv2.INTER_NEAREST)
+                x0, y0 = int(round(x0 * factor)), int(round(y0 * factor))
+            h, w = part.shape
+            cx0, cy0 = max(x0, 0), max(y0, 0)
+            cx1, cy1 = min(x0 + w, width), min(y0 + h, height)
+            if cx0 >= cx1 or cy0 >= cy1:
+                continue
+            sub = part[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+            mask[cy0:cy1, cx0:cx1][sub > 0] = 0
 
     def _candidates(self, mask, frame, r_min, r_max, strict, need=None):
         """Fruit in the regions of a mask; with `need`, only regions of which at least a
@@ -810,6 +841,18 @@ class TomatoDetector(object):
             return fallback
         residual = float(np.median(np.abs(np.hypot(xs - cx, ys - cy) - r))) / r
         return cx, cy, r, residual
+
+
+def _share_inside(det, other):
+    """Fraction of det's visible part (its mask) inside other's fitted circle."""
+    if det.mask is None:
+        return 1.0 if math.hypot(det.u - other.u, det.v - other.v) < other.radius_px else 0.0
+    ys, xs = np.nonzero(det.mask)
+    if not len(xs):
+        return 0.0
+    u = (xs + det.mask_origin[0] + 0.5) / det.mask_scale - 0.5
+    v = (ys + det.mask_origin[1] + 0.5) / det.mask_scale - 0.5
+    return float(np.mean((u - other.u) ** 2 + (v - other.v) ** 2 <= other.radius_px ** 2))
 
 
 def _fill_holes(comp):
