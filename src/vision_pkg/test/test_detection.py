@@ -1,5 +1,6 @@
 """Tomato detection and ripeness grading on synthetic ray-cast images."""
 import math
+import os
 
 import cv2
 import numpy as np
@@ -272,3 +273,20 @@ def test_fruit_in_front_of_a_red_one_is_found_beside_it(ripeness, radius, drop):
             assert len(matches) == 1, (seed, fruit.ripeness, dets)
             assert matches[0].stage == stage_of(fruit.ripeness), (seed, fruit.ripeness, matches)
         assert len(dets) == 2, (seed, dets)
+
+
+def test_ripe_fruit_behind_a_neighbour_and_cut_by_leaves_is_found():
+    # a crop of a harvest_sim render (scenario dense_cluster, picking point 1, right stereo
+    # eye): f01_7 (ripe, centre (84, 105), radius 42 px) hangs behind f01_6 with leaves over
+    # its top and bottom, so its outline is mostly leaf edges that no circle follows
+    image = cv2.imread(os.path.join(os.path.dirname(__file__), 'data',
+                                    'render_fruit_behind_neighbour.png'))
+    assert image is not None
+    dets = TomatoDetector(scale=0.5, min_radius_px=20.0, max_radius_px=200.0).detect(image)
+    truth = (84 - 42, 105 - 42, 84 + 42, 105 + 42)
+    found = [d for d in dets if _iou((d.u - d.radius_px, d.v - d.radius_px, d.u + d.radius_px,
+                                      d.v + d.radius_px), truth) >= 0.5]
+    assert len(found) == 1, dets
+    assert found[0].stage == detection.STAGE_RED, found
+    front = [d for d in dets if math.hypot(d.u - 142, d.v - 117) < 10]     # f01_6
+    assert len(front) == 1 and front[0].stage == detection.STAGE_RED, dets

@@ -733,6 +733,15 @@ class TomatoDetector(object):
                 continue
             pys, pxs = np.nonzero(part)
             inside = float(np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2))
+            if inside < p['min_inside'] and len(candidates) > 1:
+                # a fruit behind a neighbour and cut by leaves: its outline is mostly leaf
+                # edges and the border with the neighbour, which no circle follows; its
+                # visible part still lies inside the fruit, so the smallest circle around
+                # that part stands for it
+                (ex, ey), er = cv2.minEnclosingCircle(
+                    np.column_stack([pxs, pys]).astype(np.float32))
+                if r_min <= er <= r_max:
+                    cx, cy, r, inside = float(ex), float(ey), float(er), 1.0
             fill = area / (math.pi * r * r)
             # skin pixels for colour: inside 0.85 r, on the part, not bridged (sepals), not
             # highlight or deep shadow
