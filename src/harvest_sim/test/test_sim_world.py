@@ -126,3 +126,27 @@ def test_stamped_cut_waits_for_joints_as_recent():
     world.shear_cut(stamp=11.0)
     assert world.flush_cuts(now=11.2, max_wait=0.5) == []
     assert world.flush_cuts(now=11.6, max_wait=0.5) == ['shear closed on nothing']
+
+
+def test_late_stamped_cut_is_judged_where_the_arm_was_at_its_stamp():
+    # on a busy machine the shear close can reach the world after joint states in which the
+    # left arm already moves away: it must cut where the shear was when it closed
+    world = make_world()
+    joints, rj = suction_at(F0)
+    world.set_joints(joints, stamp=19.0)
+    world.set_valve(True)
+    f0 = world.fruits[0]
+    assert f0.state == w.HELD
+    joints, rj = suction_at(F0 + [-0.03, 0.0, 0.0])
+    world.set_joints(joints, stamp=19.5)                # drawn out
+    there, _ = arm('left', f0.peduncle + [0.003, 0.0, 0.0], other=rj)
+    world.set_joints(there, stamp=20.0)
+    world.set_joints(there, stamp=20.06)
+    away, _ = arm('left', (0.3, 0.3, 1.0), other=rj)
+    world.set_joints(away, stamp=20.1)                  # the arm leaves after the close
+    events = world.shear_cut(stamp=20.05)               # ... whose message comes only now
+    assert f0.state == w.HARVESTED and not f0.attached, events
+    assert np.allclose(f0.cut_point, f0.peduncle, atol=1e-6)
+    # a close older than the kept history is judged with the latest pose
+    world.set_joints(away, stamp=20.1 + w.TOOL_HISTORY + 1.0)
+    assert world.shear_cut(stamp=20.05) == ['shear closed on nothing']

@@ -16,9 +16,13 @@ the suction valve and the shear:
   at its place on the plant, DAMAGED (off the plant) -> falls to the floor.
 
 Joint states and shear closes arrive on different topics, so their order is not guaranteed: a
-stamped shear close is applied with the first joint state stamped at or after it (the arm is
-still during a cut), or with the latest one after `flush_cuts` gives up waiting.
+stamped shear close is judged with the first joint state stamped at or after it: from a short
+history (`TOOL_HISTORY`) when newer joint states came first (on a busy machine a late shear close
+would otherwise be judged where the arm went next), by waiting when none has come yet, or with
+the latest one after `flush_cuts` gives up waiting.
 """
+
+import collections
 
 import numpy as np
 
@@ -28,6 +32,8 @@ HANGING, HELD, HARVESTED, COLLECTED, DROPPED, DAMAGED = range(6)
 STATE_NAMES = ('hanging', 'held', 'harvested', 'collected', 'dropped', 'damaged')
 SUCTION_TCP = 'right_suction_tcp'
 SHEAR_TCP = 'left_shear_tcp'
+#: s of joint-state history kept to judge late shear closes where the arm was at their stamp
+TOOL_HISTORY = 5.0
 
 
 class FruitTruth(object):
@@ -72,6 +78,9 @@ class World(object):
         self.joints = {}
         self.joint_stamp = None                   # stamp (s) of the latest joint state
         self.pending_cuts = []                    # stamps of shear closes not applied yet
+        #: (stamp, shear tip, suction tcp pose) of recent joint states, oldest first: a shear
+        #: close that arrives after newer joint states is judged where the arm was at its stamp
+        self.tool_history = collections.deque()
         self.poses = geom.frame_transforms({})
         self.valve_open = False
         self.held = None                          # FruitTruth held by suction
@@ -89,6 +98,11 @@ class World(object):
         self.poses = self.geom.frame_transforms(self.joints)
         if stamp is not None:
             self.joint_stamp = float(stamp)
+            self.tool_history.append((self.joint_stamp, self.tcp(SHEAR_TCP),
+                                      self.poses[SUCTION_TCP].copy()))
+            while self.tool_history and \
+                    self.tool_history[0][0] < self.joint_stamp - TOOL_HISTORY:
+                self.tool_history.popleft()
         events = self._move_held()
         due = [t for t in self.pending_cuts if stamp is None or t <= stamp]
         if due:
@@ -128,11 +142,19 @@ class World(object):
         return self._release()
 
     def shear_cut(self, stamp=None):
-        """One shear close. Applied now if stamp is None or joints as recent exist, else
-        queued until a joint state stamped at or after it (see flush_cuts)."""
-        if stamp is None or (self.joint_stamp is not None and self.joint_stamp >= stamp):
+        """One shear close. Applied now if stamp is None; with a stamp, judged with the first
+        joint state stamped at or after it: from the recent history when newer joint states
+        are already here (a message can come late on a busy machine, when the arm has moved
+        on), else queued until that joint state comes (see flush_cuts)."""
+        if stamp is None:
             return self._cut()
-        self.pending_cuts.append(float(stamp))
+        stamp = float(stamp)
+        if self.joint_stamp is not None and self.joint_stamp >= stamp:
+            for t, tip, suction in self.tool_history:
+                if t >= stamp:
+                    return self._cut(tip, suction)
+            return self._cut()            # older than the history: the latest pose
+        self.pending_cuts.append(stamp)
         return []
 
     def flush_cuts(self, now, max_wait):
@@ -143,17 +165,23 @@ class World(object):
             events += self._cut()
         return events
 
-    def _cut(self):
+    def _cut(self, tip=None, suction=None):
+        """Shear close with the shear tip at `tip` and the suction tcp at pose `suction`
+        (default: where they are now)."""
         self.cut_events += 1
-        tip = self.tcp(SHEAR_TCP)
+        tip = self.tcp(SHEAR_TCP) if tip is None else tip
         events = []
         live = [f for f in self.fruits if f.state in (HANGING, HELD)]
-        cand = [(np.linalg.norm(tip - f.peduncle), f) for f in live]
+        centre = dict((id(f), f.position) for f in live)
+        if suction is not None and self.held is not None and id(self.held) in centre:
+            centre[id(self.held)] = suction[:3, 3] + suction[:3, :3].dot(self.hold_offset)
+        cand = [(np.linalg.norm(tip - scn.default_peduncle(centre[id(f)], f.radius)), f)
+                for f in live]
         cand = [c for c in cand if c[0] <= self.cut_tolerance]
         if cand:
             d, f = min(cand, key=lambda c: c[0])
             f.attached = False
-            f.cut_point = f.peduncle
+            f.cut_point = scn.default_peduncle(centre[id(f)], f.radius)
             if f is self.held:
                 f.state = HARVESTED
                 events.append('%s harvested (shear %.1f mm from the peduncle)' % (f.id, d * 1000))
@@ -165,7 +193,7 @@ class World(object):
             self.version += 1
             self.state_version += 1
         for f in live:
-            if f.state in (HANGING, HELD) and np.linalg.norm(tip - f.position) < f.radius:
+            if f.state in (HANGING, HELD) and np.linalg.norm(tip - centre[id(f)]) < f.radius:
                 f.state = DAMAGED
                 events.append('%s damaged: shear closed inside the fruit' % f.id)
                 self.version += 1
