@@ -287,7 +287,7 @@ def start_uploader(db_path, server_url, token, workdir, name, batch_size=50,
                    min_interval=0.0, backoff_initial=0.2, backoff_max=1.0, until_empty=False):
     log = open(os.path.join(workdir, 'uploader_%s.log' % name), 'ab')
     cmd = [sys.executable, '-m', 'network_pkg.outbox_cli', '--db', db_path, '--server',
-           server_url, '--token', token, '--batch-size', str(batch_size), '--min-interval',
+           server_url, '--token=' + token, '--batch-size', str(batch_size), '--min-interval',
            str(min_interval), '--backoff-initial', str(backoff_initial), '--backoff-max',
            str(backoff_max), '--idle-period', '0.2', '--timeout', '5']
     if until_empty:

@@ -147,6 +147,15 @@ _migrations_table = sa.Table(
 )
 
 
+def new_token():
+    """A random robot token (256 bits, URL-safe) that never starts with '-', so that it can
+    be given on a command line (``--token TOKEN``) without being taken for an option."""
+    while True:
+        token = secrets.token_urlsafe(32)
+        if not token.startswith('-'):
+            return token
+
+
 class SchemaVersionError(RuntimeError):
     """The database was migrated by a newer farm server than this one."""
 
@@ -248,7 +257,7 @@ class FarmDB(object):
 
     def add_robot(self, name, token=None):
         """Register robot ``name`` (or give it a new token). Returns the token (store it!)."""
-        token = token or secrets.token_urlsafe(32)
+        token = token or new_token()
         robots = TABLES['robots']
         with self._writing() as conn:
             exists = conn.execute(sa.select(robots.c.name).where(robots.c.name == name)).first()
