@@ -26,7 +26,8 @@ Timing: every wait and timeout is in ROS time (sim time under /use_sim_time): no
 Parameters (defaults in code and config/image_processing.yaml)
   ~target_frame (base_link), ~min_ripeness (0.7), ~fresh_data (true), ~data_timeout (5.0 s),
   ~tf_timeout (0.5 s), ~row_tolerance_px (40), ~stereo_detection/* and ~hand_detection/*
-  (detector parameters, see vision_pkg.detection.DEFAULTS), ~expected_rate (10 Hz, for
+  (detector parameters, see vision_pkg.detection.DEFAULTS; dynamic_reconfigure's colour and
+  fill thresholds apply to both detectors, except keys that ~hand_detection sets), ~expected_rate (10 Hz, for
   diagnostics; 0: frames come on demand, no rate check), ~hand_expected_rate (10 Hz; 0 idem),
   ~trigger_period (1.0 s)
 """
@@ -123,6 +124,8 @@ class ImageProcessingNode(object):
         self.stereo_detector = TomatoDetector(**_detector_params('~stereo_detection', {}))
         self.hand_detector = TomatoDetector(**_detector_params('~hand_detection',
                                                                HAND_DETECTOR_DEFAULTS))
+        #: detector keys the hand camera sets itself: live reconfigure leaves them alone
+        self._hand_own = set(HAND_DETECTOR_DEFAULTS) | set(rospy.get_param('~hand_detection', {}))
         self.bridge = CvBridge()
         # a long cache: in accelerated sim time a loaded machine may process a stereo pair
         # tens of simulated seconds after it was taken, and its tf must still be there
@@ -203,7 +206,8 @@ class ImageProcessingNode(object):
         update = {key: config[key] for key in ('hue_max', 'hue_wrap', 'sat_min', 'val_min',
                                                'min_fill', 'min_fill_green')}
         self.stereo_detector.update(**update)
-        self.hand_detector.update(**update)
+        self.hand_detector.update(**dict((k, v) for k, v in update.items()
+                                         if k not in self._hand_own))
         with self._cache_lock:
             self._cache = (None, None)
         return config
