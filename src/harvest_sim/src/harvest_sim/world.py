@@ -199,7 +199,13 @@ class World(object):
                 self.version += 1
                 self.state_version += 1
         if not events:
-            events.append('shear closed on nothing')
+            near = min(((np.linalg.norm(tip - scn.default_peduncle(centre[id(f)], f.radius)), f)
+                        for f in live), key=lambda c: c[0], default=None)
+            events.append('shear closed on nothing' if near is None else
+                          'shear closed on nothing (nearest peduncle: %s, %.1f mm, offset %s mm)'
+                          % (near[1].id, near[0] * 1000, np.round(
+                              (tip - scn.default_peduncle(centre[id(near[1])], near[1].radius))
+                              * 1000, 1).tolist()))
         return events
 
     # ------------------------------------------------------------------ internals
