@@ -171,17 +171,22 @@ class World(object):
         self.cut_events += 1
         tip = self.tcp(SHEAR_TCP) if tip is None else tip
         events = []
-        live = [f for f in self.fruits if f.state in (HANGING, HELD)]
-        centre = dict((id(f), f.position) for f in live)
-        if suction is not None and self.held is not None and id(self.held) in centre:
-            centre[id(self.held)] = suction[:3, 3] + suction[:3, :3].dot(self.hold_offset)
-        cand = [(np.linalg.norm(tip - scn.default_peduncle(centre[id(f)], f.radius)), f)
-                for f in live]
-        cand = [c for c in cand if c[0] <= self.cut_tolerance]
-        if cand:
-            d, f = min(cand, key=lambda c: c[0])
+        # (fruit, centre, peduncle) of every fruit on the plant, the held one where `suction`
+        # put it
+        live = []
+        for f in self.fruits:
+            if f.state not in (HANGING, HELD):
+                continue
+            centre = f.position
+            if suction is not None and f is self.held:
+                centre = suction[:3, 3] + suction[:3, :3].dot(self.hold_offset)
+            live.append((f, centre, scn.default_peduncle(centre, f.radius)))
+        nearest = min(live, key=lambda c: np.linalg.norm(tip - c[2]), default=None)
+        if nearest is not None and np.linalg.norm(tip - nearest[2]) <= self.cut_tolerance:
+            f, _, peduncle = nearest
+            d = np.linalg.norm(tip - peduncle)
             f.attached = False
-            f.cut_point = scn.default_peduncle(centre[id(f)], f.radius)
+            f.cut_point = peduncle
             if f is self.held:
                 f.state = HARVESTED
                 events.append('%s harvested (shear %.1f mm from the peduncle)' % (f.id, d * 1000))
@@ -192,20 +197,20 @@ class World(object):
                               % (f.id, d * 1000))
             self.version += 1
             self.state_version += 1
-        for f in live:
-            if f.state in (HANGING, HELD) and np.linalg.norm(tip - centre[id(f)]) < f.radius:
+        for f, centre, _ in live:
+            if f.state in (HANGING, HELD) and np.linalg.norm(tip - centre) < f.radius:
                 f.state = DAMAGED
                 events.append('%s damaged: shear closed inside the fruit' % f.id)
                 self.version += 1
                 self.state_version += 1
         if not events:
-            near = min(((np.linalg.norm(tip - scn.default_peduncle(centre[id(f)], f.radius)), f)
-                        for f in live), key=lambda c: c[0], default=None)
-            events.append('shear closed on nothing' if near is None else
-                          'shear closed on nothing (nearest peduncle: %s, %.1f mm, offset %s mm)'
-                          % (near[1].id, near[0] * 1000, np.round(
-                              (tip - scn.default_peduncle(centre[id(near[1])], near[1].radius))
-                              * 1000, 1).tolist()))
+            if nearest is None:
+                events.append('shear closed on nothing')
+            else:
+                offset = tip - nearest[2]
+                events.append('shear closed on nothing (nearest peduncle: %s, %.1f mm, offset %s mm)'
+                              % (nearest[0].id, np.linalg.norm(offset) * 1000,
+                                 np.round(offset * 1000, 1).tolist()))
         return events
 
     # ------------------------------------------------------------------ internals
