@@ -498,7 +498,7 @@ class TomatoDetector(object):
             # fruit touching a red one would otherwise join it in one region, often with one
             # distance-transform peak, and their joint circle would be dropped as a duplicate
             # of the red fruit (parts, not circles: a red fruit behind keeps its full circle)
-            self._erase_parts(both, found, factor)
+            self._erase_parts(both, found, frame2.scale)
             for det in self._candidates(self._clean(both, factor), frame2, r_min * factor,
                                         r_max * factor, strict=True, need=green2):
                 # the rest of a fruit already found (its yellow-green shoulder, say) lies
@@ -508,21 +508,20 @@ class TomatoDetector(object):
         return self._merge_fragments(found)
 
     @staticmethod
-    def _erase_parts(mask, detections, factor):
-        """Clear the visible part (mask crop, grown by a pixel) of each detection of the
-        working image from a mask at `factor` times the working size, in place."""
+    def _erase_parts(mask, detections, mask_scale):
+        """Clear the visible part (mask crop, grown by a pixel) of each detection from a mask
+        of the input image at `mask_scale`, in place."""
         kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         height, width = mask.shape
         for det in detections:
-            if det.mask is None:
-                continue
             # padded by a pixel so that the growth may leave the crop
             part = cv2.dilate(np.pad(det.mask.astype(np.uint8), 1), kernel)
             x0, y0 = det.mask_origin[0] - 1, det.mask_origin[1] - 1
-            if factor != 1.0:
-                part = cv2.resize(part, None, fx=factor, fy=factor,
+            ratio = mask_scale / det.mask_scale
+            if abs(ratio - 1.0) > 1e-9:
+                part = cv2.resize(part, None, fx=ratio, fy=ratio,
                                   interpolation=cv2.INTER_NEAREST)
-                x0, y0 = int(round(x0 * factor)), int(round(y0 * factor))
+                x0, y0 = int(round(x0 * ratio)), int(round(y0 * ratio))
             h, w = part.shape
             cx0, cy0 = max(x0, 0), max(y0, 0)
             cx1, cy1 = min(x0 + w, width), min(y0 + h, height)
@@ -853,9 +852,8 @@ class TomatoDetector(object):
 
 
 def _share_inside(det, other):
-    """Fraction of det's visible part (its mask) inside other's fitted circle."""
-    if det.mask is None:
-        return 1.0 if math.hypot(det.u - other.u, det.v - other.v) < other.radius_px else 0.0
+    """Fraction of det's visible part (its mask; every detection of detect() has one) inside
+    other's fitted circle."""
     ys, xs = np.nonzero(det.mask)
     if not len(xs):
         return 0.0

@@ -122,10 +122,10 @@ class ImageProcessingNode(object):
         self.trigger_period = rospy.Duration.from_sec(float(rospy.get_param('~trigger_period',
                                                                             1.0)))
         self.stereo_detector = TomatoDetector(**_detector_params('~stereo_detection', {}))
-        self.hand_detector = TomatoDetector(**_detector_params('~hand_detection',
-                                                               HAND_DETECTOR_DEFAULTS))
+        hand_params = _detector_params('~hand_detection', HAND_DETECTOR_DEFAULTS)
+        self.hand_detector = TomatoDetector(**hand_params)
         #: detector keys the hand camera sets itself: live reconfigure leaves them alone
-        self._hand_own = set(HAND_DETECTOR_DEFAULTS) | set(rospy.get_param('~hand_detection', {}))
+        self._hand_own = set(hand_params)
         self.bridge = CvBridge()
         # a long cache: in accelerated sim time a loaded machine may process a stereo pair
         # tens of simulated seconds after it was taken, and its tf must still be there
