@@ -33,7 +33,8 @@ class Watcher(object):
         rospy.Subscriber('mock/halt_count', Int32, self._halt)
         rospy.Subscriber('task_planner/state', String, self._state)
         self.goals = []
-        rospy.Subscriber('mock/goals', String, lambda m: self._update(lambda: self.goals.append(m.data)))
+        self.goals_sub = rospy.Subscriber('mock/goals', String,
+                                          lambda m: self._update(lambda: self.goals.append(m.data)))
 
     def _update(self, fn):
         with self.cond:
@@ -131,6 +132,10 @@ class ExecutiveTest(unittest.TestCase):
         # the plan is latched before the mission starts (a farm plan comes from the uploader)
         plan = rospy.wait_for_message('plan/picking_points', Int32MultiArray, timeout=WAIT)
         self.assertEqual(list(plan.data), [2, 0])
+        # mock/goals is not latched: a goal sent before this subscription is connected is lost
+        # (the whole mock mission takes well under a second)
+        self.assertTrue(w.wait(lambda: w.goals_sub.get_num_connections() > 0),
+                        'mock/goals never connected')
         rospy.wait_for_service('task_planner/start', timeout=WAIT)
         resp = rospy.ServiceProxy('task_planner/start', Trigger)()
         self.assertTrue(resp.success, resp.message)
