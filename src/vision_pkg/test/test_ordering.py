@@ -46,3 +46,16 @@ def test_inside_image_rejects_fruit_cut_by_the_border():
     assert not inside_image(28, 455, 48, 1024, 768, 4)       # cut by the left border
     assert not inside_image(600, 240, 40, 640, 480, 4)       # cut by the right border
     assert not inside_image(320, 470, 20, 640, 480, 4)       # cut by the bottom
+
+
+def test_servo_follows_the_fruit_the_target_projects_onto_not_a_neighbour():
+    from vision_pkg.ordering import servo_target
+    centres, radii = [(300.0, 200.0), (120.0, 210.0)], [150.0, 60.0]
+    assert servo_target(centres, radii, (310.0, 190.0)) == 0
+    # the held fruit is not seen in this frame: the nearest neighbour does not hold the
+    # target's projection, so nothing is followed (the servo counts the frame as lost)
+    assert servo_target(centres[1:], radii[1:], (310.0, 190.0)) is None
+    assert servo_target(centres[1:], radii[1:], (310.0, 190.0), on_fruit=False) == 0
+    # of two fruit holding the projection, the nearer one
+    assert servo_target([(300.0, 200.0), (330.0, 190.0)], [150.0, 150.0], (325.0, 190.0)) == 1
+    assert servo_target([], [], (0.0, 0.0)) is None

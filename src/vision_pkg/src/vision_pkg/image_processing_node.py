@@ -522,7 +522,15 @@ class ImageProcessingNode(object):
             feature.depth = float(hint_cam.point.z)
         else:
             ref = np.array([k[0, 2], k[1, 2]])
-        best = int(np.argmin([math.hypot(c[0] - ref[0], c[1] - ref[1]) for c in centres]))
+        # with a hint the target's centre must lie on the fruit followed (not a neighbour)
+        best = ordering.servo_target([c[:2] for c in centres],
+                                     [d.radius_px for d in detections], ref,
+                                     on_fruit=hint_cam is not None)
+        if best is None:
+            rospy.logwarn_throttle(2.0, 'image_processing: no fruit in the hand image holds the '
+                                   'target\'s projection (%.0f, %.0f); %d others seen'
+                                   % (ref[0], ref[1], len(detections)))
+            return feature
         u, v, x, y = centres[best]
         feature.found = True
         feature.u, feature.v, feature.x, feature.y = u, v, x, y

@@ -33,3 +33,19 @@ def inside_image(u, v, radius_px, width, height, margin_px=0.0):
     """True when the circle (u, v, radius_px) lies inside the image with `margin_px` to spare."""
     return (u - radius_px >= margin_px and v - radius_px >= margin_px and
             u + radius_px <= width - 1 - margin_px and v + radius_px <= height - 1 - margin_px)
+
+
+def servo_target(centres, radii, ref, on_fruit=True):
+    """Index of the fruit the visual servo follows, or None: the detection (centre (u, v),
+    radius [px]) nearest to `ref`, the projection of the target's expected centre. With
+    `on_fruit`, only a fruit whose circle holds that projection qualifies: the held fruit's
+    centre projects onto its own silhouette, while a neighbour merely nearest to it (the held
+    fruit not seen in this frame) would lead the shear beside the pedicel."""
+    best, best_d = None, None
+    for i, ((u, v), r) in enumerate(zip(centres, radii)):
+        d = ((u - ref[0]) ** 2 + (v - ref[1]) ** 2) ** 0.5
+        if on_fruit and d > r:
+            continue
+        if best is None or d < best_d:
+            best, best_d = i, d
+    return best
