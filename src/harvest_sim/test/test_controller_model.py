@@ -214,3 +214,20 @@ def test_busy_until_knows_when_everything_under_way_ends(model):
     model.start_shear(11.0)
     assert model.busy_until(11.0) == pytest.approx(11.5)      # 0.3 s stroke + 0.2 s hold
     assert model.busy_until(11.6) == pytest.approx(11.6)
+
+
+def test_closure_pose_is_the_arm_when_the_closure_was_first_noticed(model):
+    # the closure (t = 1.3) is first noticed by a read at 1.35; a move commanded after that
+    # read must not change the pose the closure is judged with, even if the next regular
+    # joint state comes much later
+    model.write_holding(cm.REG_SYSTEM_CONTROL, [1 << cm.SYS_ENABLE_ALL], 0.0)
+    model.write_coils(cm.COIL_SHEAR, [1], 1.0)
+    assert model.pop_closure_pose() is None
+    assert model.read_holding(cm.REG_SHEAR_COUNT, 1, 1.35) == [1]
+    move(model, R_LIFT, 20000, 1.4)
+    t, positions, velocities = model.pop_closure_pose()
+    assert t == pytest.approx(1.35)
+    assert positions[R_LIFT] == 0.0 and velocities[R_LIFT] == 0.0
+    assert model.joint_states(2.0)[0][R_LIFT] > 0.0          # the arm has moved on since
+    assert model.pop_events(2.0) == [('shear_cut', pytest.approx(1.3))]
+    assert model.pop_closure_pose() is None                  # once per closure

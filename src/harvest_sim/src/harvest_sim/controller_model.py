@@ -199,6 +199,7 @@ class ControllerModel(object):
         self._shear_close_reported = False
         self.shear_count = 0
         self._events = []
+        self._closure_pose = None
 
     # --- time ----------------------------------------------------------------------------
     def _now(self, t):
@@ -211,6 +212,9 @@ class ControllerModel(object):
                 self._shear_close_reported = True
                 self.shear_count = (self.shear_count + 1) & 0xFFFF
                 self._events.append(('shear_cut', close))
+                # the axes as nobody has yet seen the closure (no move can have followed it)
+                states = [a.state(t) for a in self.axes]
+                self._closure_pose = (t, [st[0] for st in states], [st[1] for st in states])
             if t >= close + self.shear_hold:
                 self._shear_start = None
         return t
@@ -260,6 +264,16 @@ class ControllerModel(object):
             if flag != self.sealed:
                 self.sealed = flag
                 self._sealed_since = t
+
+    def pop_closure_pose(self):
+        """(t, positions, velocities) of every axis when the last shear closure was first
+        noticed (by a register read or the clock), then None until the next one. Noticing it is
+        what lets anyone react to it, so the arm is still where it closed: a joint state at
+        this time lets the world judge the cut even when the controller's next regular joint
+        state comes after the arm has moved on (sparse timer ticks on a busy machine)."""
+        with self._lock:
+            pose, self._closure_pose = self._closure_pose, None
+            return pose
 
     def pop_events(self, t):
         """Events since the last call: ('valve', t, open) and ('shear_cut', t_close)."""

@@ -4,7 +4,9 @@ Serves the controller model over Modbus TCP and publishes its ground truth for t
 simulator. All timing is ROS time, so the node follows /clock when /use_sim_time is true.
 
 Publications (relative; the node runs in namespace ``sim``):
-  joint_states (sensor_msgs/JointState)  URDF joint names, every ``~publish_rate`` (ROS time)
+  joint_states (sensor_msgs/JointState)  URDF joint names, every ``~publish_rate`` (ROS time),
+                                         plus, before each shear_cut, one stamped when the
+                                         closure was first noticed (the arm where it cut)
   suction_valve (std_msgs/Bool, latched) valve state on every change
   shear_cut (std_msgs/Header)            one per shear closure, stamp = closing time
   activity (harvest_sim/SimActivity)     for sim_clock: ACTION on every Modbus write, BUSY with
@@ -139,6 +141,13 @@ class SimControllerNode(object):
             if event[0] == 'valve':
                 self.valve_pub.publish(Bool(data=event[2]))
             elif event[0] == 'shear_cut':
+                pose = self.model.pop_closure_pose()
+                if pose is not None and pose[0] < t:
+                    # the arm where the shear closed, before the joint state of this tick
+                    closed = JointState(name=self.joint_names, position=pose[1],
+                                        velocity=pose[2])
+                    closed.header.stamp = rospy.Time.from_sec(pose[0])
+                    self.joint_pub.publish(closed)
                 self.cut_pub.publish(Header(stamp=rospy.Time.from_sec(event[1]),
                                             frame_id='left_shear_tcp'))
         positions, velocities = self.model.joint_states(t)
