@@ -290,3 +290,23 @@ def test_ripe_fruit_behind_a_neighbour_and_cut_by_leaves_is_found():
     assert found[0].stage == detection.STAGE_RED, found
     front = [d for d in dets if math.hypot(d.u - 142, d.v - 117) < 10]     # f01_6
     assert len(front) == 1 and front[0].stage == detection.STAGE_RED, dets
+
+
+@pytest.mark.parametrize('angle', [0.5, 1.2, 2.5, 4.0])
+@pytest.mark.parametrize('offset', [0.03, 0.04])
+def test_red_fruit_half_hidden_behind_a_red_one_are_both_found(angle, offset):
+    # two ripe fruit of one truss, one hanging behind the other and showing only a crescent
+    # beside it: one region of ripe colour with one distance-transform peak between them,
+    # whose circle takes in both. The front fruit's own arc gives its circle; what that circle
+    # does not hold is the fruit behind, whose hidden part the front fruit explains.
+    front = scene.Fruit(0.0, 0.0, 0.46, 0.033, 0.95)
+    behind = scene.Fruit(offset * math.cos(angle), offset * math.sin(angle), 0.53, 0.036, 0.9)
+    for seed in range(2):
+        image, _, _ = scene.render([front, behind], backdrop_depth=0.95, seed=seed)
+        dets = TomatoDetector().detect(image)
+        for fruit in (front, behind):
+            truth = scene.gt_box(fruit)
+            found = [d for d in dets if _match(d, fruit) >= 0.5]
+            assert len(found) == 1, (seed, fruit.centre, truth, dets)
+            assert found[0].stage == detection.STAGE_RED, (seed, found)
+        assert len(dets) == 2, (seed, dets)

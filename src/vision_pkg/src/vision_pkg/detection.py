@@ -90,6 +90,10 @@ DEFAULTS = {
     'bridge_px': 15,            # larger closing of ripe colours through green or dark pixels only
     'bridge_val_max': 90,       # ... dark = HSV value up to this
     'merge_score_diff': 0.25,   # fragments of one fruit: at most this ripeness-score apart
+    'refit_radius': 1.3,        # a ripe part too thin for its circle: refit at most this x its
+                                # inscribed radius (a fruit in front of another, one peak)
+    'max_residual_refit': 0.03,  # ... when that circle follows its arc this well (median / r)
+    'min_front_outline': 0.5,   # ... and when that much of its circle is the region's outline
     'max_shared_part': 0.5,     # a strict-pass fruit with more of its visible part inside the
                                 # circle of a fruit of pass 1 is the rest of that fruit
     'max_regions': 30,          # regions examined per pass (largest first)
@@ -97,7 +101,7 @@ DEFAULTS = {
     # ripeness calibration: per-pixel wrapped hue (OpenCV units, red = 0) -> ripeness knots
     'score_hue': [4.0, 9.0, 14.0, 18.0, 22.0, 26.0, 30.0, 35.0, 41.0],
     'score_values': [1.0, 0.88, 0.7, 0.55, 0.42, 0.3, 0.18, 0.06, 0.0],
-    'pale_sat': 110,            # pixels less saturated than this drift towards score 0.5
+    'pale_sat': 130,            # pixels less saturated than this drift towards score 0.5
 }
 
 
@@ -113,10 +117,11 @@ class Detection(object):
     """One detected fruit, in full-resolution pixel coordinates of the input image."""
 
     __slots__ = ('u', 'v', 'radius_px', 'score', 'stage', 'fill', 'area_px', 'mask',
-                 'mask_origin', 'mask_scale', 'hue_angle', 'chroma')
+                 'mask_origin', 'mask_scale', 'hue_angle', 'chroma', 'behind')
 
     def __init__(self, u, v, radius_px, score, mask=None, mask_origin=(0, 0), mask_scale=1.0,
-                 fill=1.0, area_px=0.0, hue_angle=float('nan'), chroma=float('nan')):
+                 fill=1.0, area_px=0.0, hue_angle=float('nan'), chroma=float('nan'),
+                 behind=False):
         self.u = float(u)
         self.v = float(v)
         self.radius_px = float(radius_px)
@@ -129,6 +134,7 @@ class Detection(object):
         self.area_px = float(area_px)
         self.hue_angle = float(hue_angle)
         self.chroma = float(chroma)
+        self.behind = bool(behind)        # seen behind a fruit in front (split off its region)
 
     def box(self, width=None, height=None):
         """(x, y, w, h) integer box around the fitted circle, clipped to the image if given."""
@@ -639,7 +645,10 @@ class TomatoDetector(object):
         for det in sorted(detections, key=lambda d: -d.radius_px):
             host = None
             for big in keep:
-                if math.hypot(det.u - big.u, det.v - big.v) < 0.9 * big.radius_px and \
+                # (a fruit split off the region of the fruit in front of it is not a
+                # fragment, though its centre may lie inside the front fruit's circle)
+                if not det.behind and \
+                        math.hypot(det.u - big.u, det.v - big.v) < 0.9 * big.radius_px and \
                         abs(det.score - big.score) <= self.params['merge_score_diff']:
                     host = big
                     break
@@ -725,13 +734,49 @@ class TomatoDetector(object):
                         (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
                     candidates = [(comp > 0, whole)]
         results = []
-        for part, circle in candidates:
+        in_front = {}        # candidate index -> the part of the fruit in front of it
+        for index, (part, circle) in enumerate(candidates):
             area = int(part.sum())
             cx, cy, r = circle[:3]
-            if r < r_min or r > r_max:
+            residual = circle[3] if len(circle) > 3 else 1.0
+            if r < r_min or (r > r_max and strict):
                 continue
             pys, pxs = np.nonzero(part)
-            inside = float(np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2))
+            if not strict and (area < p['min_fill'] * math.pi * r * r or r > r_max):
+                # a circle far larger than the part: the gentle outline of two fruit, one in
+                # front of the other, in one part (one distance-transform peak between them)
+                # fits a circle around both; the front fruit's own arc has about the radius of
+                # the part's inscribed circle
+                refit = self._fit_part(part, outer, float(cv2.distanceTransform(
+                    part.astype(np.uint8), cv2.DIST_L2, 5).max()), r_high=p['refit_radius'])
+                if refit is not None and refit[3] <= p['max_residual_refit']:
+                    cx, cy, r, residual = refit
+            inside = (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2
+            if not strict and np.mean(inside) < p['min_inside'] and \
+                    residual <= p['max_residual_refit'] and r_min <= r <= r_max and \
+                    inside.sum() >= p['min_fill_green'] * math.pi * r * r and \
+                    len(candidates) < 2 * int(p['max_peaks']) and \
+                    _outline_cover(outer, cx, cy, r) >= p['min_front_outline']:
+                # the circle follows its arc and is well filled, but much of the part lies
+                # outside: that is a fruit behind it. The front fruit is what its circle holds;
+                # the rest, if large enough, is examined as a part of its own.
+                rest = part.copy()
+                rest[pys[inside], pxs[inside]] = False
+                rest = cv2.morphologyEx(rest.astype(np.uint8), cv2.MORPH_OPEN,
+                                        cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
+                if cv2.countNonZero(rest) >= math.pi * r_min * r_min * 0.3:
+                    rest_circle = self._fit_part(rest > 0, outer, float(
+                        cv2.distanceTransform(rest, cv2.DIST_L2, 5).max()))
+                    if rest_circle is not None:
+                        candidates.append((rest > 0, rest_circle))
+                        in_front[len(candidates) - 1] = part & ~(rest > 0)
+                part = part.copy()
+                part[pys[~inside], pxs[~inside]] = False
+                pxs, pys = pxs[inside], pys[inside]
+                area = int(inside.sum())
+                inside = 1.0
+            else:
+                inside = float(np.mean(inside))
             if inside < p['min_inside'] and len(candidates) > 1:
                 # a fruit behind a neighbour and cut by leaves: its outline is mostly leaf
                 # edges and the border with the neighbour, which no circle follows; its
@@ -741,7 +786,13 @@ class TomatoDetector(object):
                     np.column_stack([pxs, pys]).astype(np.float32))
                 if r_min <= er <= r_max:
                     cx, cy, r, inside = float(ex), float(ey), float(er), 1.0
+            if r > r_max:
+                continue
             fill = area / (math.pi * r * r)
+            if index in in_front:
+                # the fruit in front hides part of this one's circle: that part is explained
+                yy, xx = np.nonzero(in_front[index])
+                fill += float(np.sum((xx - cx) ** 2 + (yy - cy) ** 2 <= r * r)) / (math.pi * r * r)
             # skin pixels for colour: inside 0.85 r, on the part, not bridged (sepals), not
             # highlight or deep shadow
             sy, sx = self._skin_pixels(frame, part, ox, oy, cx, cy, 0.85 * r)
@@ -763,7 +814,8 @@ class TomatoDetector(object):
             results.append(Detection(
                 (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, r / scale, score,
                 mask=crop.copy(), mask_origin=(x0 + ox, y0 + oy), mask_scale=scale,
-                fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma))
+                fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma,
+                behind=index in in_front))
         return results
 
     def _join_parts(self, candidates, peak_rs, outer):
@@ -805,9 +857,10 @@ class TomatoDetector(object):
         return [(part, circle) for part, circle, _ in cands]
 
     @staticmethod
-    def _fit_part(part, outer, peak_r):
+    def _fit_part(part, outer, peak_r, r_high=3.0):
         """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
-        lie on its convex hull; residual = median radial misfit / r (1.0 for the fallback)."""
+        lie on its convex hull, radius in [0.8, r_high] x the inscribed radius `peak_r` (+2);
+        residual = median radial misfit / r (1.0 for the fallback)."""
         edge = part & outer
         ys, xs = np.nonzero(edge)
         part8 = part.astype(np.uint8)
@@ -830,11 +883,14 @@ class TomatoDetector(object):
             xs, ys = xs[on_hull], ys[on_hull]
         xs = xs.astype(np.float64)
         ys = ys.astype(np.float64)
+        r_lo, r_hi = 0.8 * peak_r, r_high * peak_r + 2.0
         circle = robust_fit_circle(xs, ys)
+        if circle is not None and not r_lo <= circle[2] <= r_hi:
+            circle = None
         support = _support(circle, xs, ys) if circle is not None else 0
         arc = None
         if support < 0.9 * len(xs):
-            arc = arc_fit_circle(xs, ys, 0.8 * peak_r, 3.0 * peak_r + 2.0)
+            arc = arc_fit_circle(xs, ys, r_lo, r_hi)
         if arc is not None and _support(arc, xs, ys) > support:
             # the outline is partly a straight or concave cut (a leaf or stem in front of the
             # fruit): the circle that most of the outline follows is the fruit
@@ -843,12 +899,29 @@ class TomatoDetector(object):
             return fallback
         cx, cy, r = circle
         # the radius must be consistent with the inscribed radius, the centre near the part
-        if r < 0.8 * peak_r or r > 3.0 * peak_r + 2.0:
+        if r < r_lo or r > r_hi:
             return fallback
         if math.hypot(cx - mx, cy - my) > r:
             return fallback
         residual = float(np.median(np.abs(np.hypot(xs - cx, ys - cy) - r))) / r
         return cx, cy, r, residual
+
+
+def _outline_cover(outer, cx, cy, r, samples=48):
+    """Fraction of a circle (crop pixels) that runs along outline pixels of a region (within
+    1 px + 3 % of r): a fruit in front of another shows most of its outline, a circle inscribed
+    in a strip of fruit colour touches it on two sides only."""
+    height, width = outer.shape
+    a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
+    xs = np.rint(cx + r * np.cos(a)).astype(np.int64)
+    ys = np.rint(cy + r * np.sin(a)).astype(np.int64)
+    ok = (xs >= 0) & (ys >= 0) & (xs < width) & (ys < height)
+    if not ok.any():
+        return 0.0
+    tol = int(math.ceil(1.0 + 0.03 * r))
+    near = cv2.dilate(outer.astype(np.uint8), cv2.getStructuringElement(
+        cv2.MORPH_ELLIPSE, (2 * tol + 1, 2 * tol + 1)))
+    return float(np.sum(near[ys[ok], xs[ok]] > 0)) / samples
 
 
 def _share_inside(det, other):
