@@ -1,6 +1,8 @@
 """SMACH core on this Python through control_pkg.smach_compat (no ROS master needed)."""
+import os
 import subprocess
 import sys
+import textwrap
 import threading
 
 import pytest
@@ -149,3 +151,66 @@ def test_ros_names_are_lazy_and_known():
         getattr(smach_compat, 'NoSuchThing')
     assert 'SimpleActionState' in smach_compat.__all__
     assert isinstance(smach_compat.HAVE_SMACH_ROS, bool)
+
+
+# What task_planner imports, then the layer it got (the choice is made once per process,
+# so each case runs in a fresh interpreter with its own fake smach_ros on the path).
+_LAYER_PROBE = (
+    'import control_pkg.executive_node\n'
+    'import control_pkg.smach_compat as c\n'
+    'from control_pkg.smach_compat import SimpleActionState, IntrospectionServer\n'
+    'print("LAYER", c.HAVE_SMACH_ROS, SimpleActionState.__module__, IntrospectionServer.__module__)\n')
+
+_FALLBACK_LAYER = ('LAYER False control_pkg.smach_ros_compat_action '
+                   'control_pkg.smach_ros_compat_introspection')
+_WARNING = 'smach_ros is installed but cannot be imported'
+
+
+def probe_layer(tmp_path, smach_ros_init=None):
+    """Run _LAYER_PROBE with `smach_ros_init` as smach_ros/__init__.py (None: no smach_ros)."""
+    env = dict(os.environ)
+    if smach_ros_init is not None:
+        package = tmp_path / 'smach_ros'
+        package.mkdir()
+        (package / '__init__.py').write_text(textwrap.dedent(smach_ros_init))
+        env['PYTHONPATH'] = os.pathsep.join([str(tmp_path)] + [p for p in [env.get('PYTHONPATH')] if p])
+    proc = subprocess.run([sys.executable, '-c', _LAYER_PROBE], env=env, stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, universal_newlines=True)
+    assert proc.returncode == 0, proc.stderr
+    layer = [line for line in proc.stdout.splitlines() if line.startswith('LAYER ')]
+    return layer, proc.stderr
+
+
+@pytest.mark.parametrize('smach_ros_init', [
+    # smach_ros found but not on the ROS package path: roslib raises rospkg.ResourceNotFound
+    'import roslib\nroslib.load_manifest("smach_ros_not_on_the_package_path")\n',
+    # a dependency of smach_ros missing
+    'import a_dependency_that_is_not_installed\n',
+    # anything else a broken install can raise while importing
+    'raise AttributeError("module smach has no attribute Iterator")\n',
+], ids=['roslib_load_manifest', 'missing_dependency', 'other_error'])
+def test_broken_smach_ros_falls_back_with_one_warning(tmp_path, smach_ros_init):
+    layer, stderr = probe_layer(tmp_path, smach_ros_init)
+    assert layer == [_FALLBACK_LAYER]
+    warnings = [line for line in stderr.splitlines() if _WARNING in line]
+    assert len(warnings) == 1, stderr
+    assert 'control_pkg.smach_ros_compat' in warnings[0]
+
+
+def test_working_smach_ros_is_used(tmp_path):
+    layer, stderr = probe_layer(tmp_path, '''
+        class SimpleActionState(object):
+            pass
+        class IntrospectionServer(object):
+            pass
+        ''')
+    assert layer == ['LAYER True smach_ros smach_ros']
+    assert _WARNING not in stderr
+
+
+def test_no_smach_ros_falls_back_quietly(tmp_path):
+    if subprocess.call([sys.executable, '-c', 'import smach_ros'], stderr=subprocess.DEVNULL) == 0:
+        pytest.skip('smach_ros is installed here')
+    layer, stderr = probe_layer(tmp_path)
+    assert layer == [_FALLBACK_LAYER]
+    assert 'smach_ros' not in stderr

@@ -33,15 +33,19 @@ avoids the DeprecationWarning flood from Concurrence's wait loop.
 
 smach_ros or the fallback
 -------------------------
-``SimpleActionState`` and ``IntrospectionServer`` come from ``smach_ros`` when it is
-importable (a Noetic robot PC), else from ``control_pkg.smach_ros_compat``, which has the
-same constructor signatures and behaviour. They are loaded lazily (PEP 562 module
-``__getattr__``), so importing ``smach`` from here needs neither rospy nor a ROS build:
-pure decision logic and its pytest tests stay ROS-free. Loading either ROS layer routes
-SMACH's log output to rospy and its shutdown check to ``rospy.is_shutdown``.
+``SimpleActionState`` and ``IntrospectionServer`` come from ``smach_ros`` when it
+imports (a Noetic robot PC), else from ``control_pkg.smach_ros_compat``, which has the
+same constructor signatures and behaviour. The choice is made once, by really importing
+smach_ros: a smach_ros that is installed but broken (a missing dependency, or
+``roslib.load_manifest`` failing because it is not on the ROS package path) raises
+something, which is logged as one warning line before the fallback is used; it does not
+stop the node. Both names always come from the same layer. ``HAVE_SMACH_ROS`` tells which
+one (True: smach_ros). All three are resolved lazily (PEP 562 module ``__getattr__``), so
+importing ``smach`` from here needs neither rospy nor a ROS build: pure decision logic and
+its pytest tests stay ROS-free. Loading either ROS layer routes SMACH's log output to
+rospy and its shutdown check to ``rospy.is_shutdown``.
 """
 import importlib
-import importlib.util
 import threading
 
 import smach
@@ -49,9 +53,6 @@ import smach.concurrence
 
 __all__ = ['smach', 'SimpleActionState', 'IntrospectionServer', 'HAVE_SMACH_ROS',
            'CONCURRENCE_PATCHED']
-
-HAVE_SMACH_ROS = importlib.util.find_spec('smach_ros') is not None
-
 
 class _AliveAliasThread(threading.Thread):
     """A Thread that also answers the pre-3.9 spelling ``isAlive()``."""
@@ -92,14 +93,52 @@ def _patch_concurrence():
 CONCURRENCE_PATCHED = _patch_concurrence()
 
 _ROS_NAMES = ('SimpleActionState', 'IntrospectionServer')
+_FALLBACK = 'control_pkg.smach_ros_compat'
+_layer_lock = threading.Lock()
+
+
+def _warn(text):
+    """One warning line through rospy (stderr before init_node), else Python logging."""
+    try:
+        import rospy
+    except ImportError:  # the fallback needs rospy too and will say so itself
+        import logging
+        logging.getLogger(__name__).warning(text)
+        return
+    rospy.logwarn(text)
+
+
+def _import_smach_ros():
+    """The smach_ros module if it imports, else None (one warning if it is there but broken)."""
+    try:
+        return importlib.import_module('smach_ros')
+    except ImportError as exc:
+        if getattr(exc, 'name', None) == 'smach_ros':
+            return None  # not installed: the fallback is the normal case, nothing to say
+        reason = exc
+    except Exception as exc:  # a broken install raises anything: rospkg, roslib, ...
+        reason = exc
+    _warn('control_pkg.smach_compat: smach_ros is installed but cannot be imported (%s: %s); '
+          'using %s instead' % (type(reason).__name__, ' '.join(str(reason).split()), _FALLBACK))
+    return None
+
+
+def _load_ros_layer():
+    """Decide once between smach_ros and the fallback; bind the lazy names here."""
+    with _layer_lock:
+        if 'HAVE_SMACH_ROS' not in globals():
+            layer = _import_smach_ros()
+            have = layer is not None
+            if not have:
+                layer = importlib.import_module(_FALLBACK)
+            for name in _ROS_NAMES:
+                globals()[name] = getattr(layer, name)
+            globals()['HAVE_SMACH_ROS'] = have
 
 
 def __getattr__(name):
     """Load the ROS layer (smach_ros or the fallback) on first use of one of its names."""
-    if name not in _ROS_NAMES:
+    if name not in _ROS_NAMES and name != 'HAVE_SMACH_ROS':
         raise AttributeError("module %r has no attribute %r" % (__name__, name))
-    layer = importlib.import_module('smach_ros' if HAVE_SMACH_ROS
-                                    else 'control_pkg.smach_ros_compat')
-    value = getattr(layer, name)
-    globals()[name] = value
-    return value
+    _load_ros_layer()
+    return globals()[name]
