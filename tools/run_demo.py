@@ -9,29 +9,26 @@ robot stack), waits for the executive's mission summary, reads the simulator's g
 
 (the speed counts from the simulated clock's first tick to the mission summary; the closing
 line's wall time counts from the launch). Exit status 0 only when the mission ended `succeeded`.
+
+Each run has a private master, a free loopback port for the simulated Modbus controller and a
+controller serial number of its own (harvest_sim.instance), so it can run beside another
+simulation on the same machine: the robot stack drives only its own simulated controller.
 """
 import argparse
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 import threading
 import time
 
+from harvest_sim.instance import free_port, sim_launch_args
+
 DEFAULT_TIMEOUT = 900.0   # wall seconds
 #: sim.launch's time scale (most simulated seconds per wall second; the clock runs at real time
 #: while nothing moves in the simulated world, see harvest_bringup/README.md)
 DEFAULT_TIME_SCALE = '20'
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(('127.0.0.1', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
 
 
 def ground_truth_counts(summary):
@@ -40,23 +37,37 @@ def ground_truth_counts(summary):
             int(summary.dropped + summary.damaged))
 
 
+def fatal_lines(log_path, limit=3):
+    """The [FATAL] lines of a launch log (a node that could not start, e.g. its port taken)."""
+    try:
+        with open(log_path, errors='replace') as stream:
+            lines = [line.strip() for line in stream if '[FATAL]' in line]
+    except OSError:
+        return []
+    return lines[:limit]
+
+
 def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
     """Run one simulated mission; return a dict with the executive summary, ground truth, wall time
     and the speed reached (simulated / wall seconds from the clock's first tick to the summary).
 
-    Raises RuntimeError with the reason when the mission could not run to its end.
+    launch_args come after this run's own controller_port and controller_serial (so they may
+    override them). Raises RuntimeError with the reason when the mission could not run to its end.
     """
     port = free_port()
     master = 'http://127.0.0.1:%d' % port
     env = dict(os.environ, ROS_MASTER_URI=master, ROS_HOSTNAME='localhost')
     os.environ.update({'ROS_MASTER_URI': master, 'ROS_HOSTNAME': 'localhost'})
     db_path = os.path.abspath('demo_harvest.db')
+    own = sim_launch_args() + list(launch_args)
+    print('[demo] this run: master port %d, %s' % (port, ' '.join(own)))
+    sys.stdout.flush()
     wall_start = time.time()
     log = open(log_path, 'w')
     launch = subprocess.Popen(
         ['roslaunch', '-p', str(port), 'harvest_bringup', 'sim.launch', 'scenario:=%s' % scenario,
          'time_scale:=%g' % time_scale, 'db_path:=%s' % db_path, 'mission_id:=demo-%s' % scenario]
-        + list(launch_args),
+        + own,
         stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
     import rosgraph
     import rospy
@@ -87,7 +98,8 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
             if first is None and rospy.get_time() > 0.0:
                 first = (time.time(), rospy.get_time())
             if launch.poll() is not None:
-                raise RuntimeError('the launch ended before the mission did; see %s' % log_path)
+                raise RuntimeError('the launch ended before the mission did%s; see %s' % (
+                    ''.join(': ' + line for line in fatal_lines(log_path)), log_path))
             if time.time() - wall_start > timeout:
                 raise RuntimeError('no mission summary within %.0f s; see %s' % (timeout, log_path))
         end = (time.time(), rospy.get_time())
@@ -102,12 +114,24 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
         return {'summary': state['summary'], 'truth': truth, 'wall': wall, 'sim_span': sim_span,
                 'wall_span': wall_span}
     finally:
-        try:
-            os.killpg(launch.pid, signal.SIGINT)
-            launch.wait(timeout=30)
-        except (subprocess.TimeoutExpired, ProcessLookupError):
-            os.killpg(launch.pid, signal.SIGKILL)
+        stop_launch(launch)
         log.close()
+
+
+def stop_launch(launch, grace=30.0):
+    """SIGINT to the launch's process group, SIGKILL after `grace` s. A launch that has already
+    ended (e.g. a required node died: its process group is gone) is left as it is."""
+    try:
+        os.killpg(launch.pid, signal.SIGINT)
+        launch.wait(timeout=grace)
+    except ProcessLookupError:
+        pass
+    except subprocess.TimeoutExpired:
+        try:
+            os.killpg(launch.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        launch.wait()
 
 
 def main():

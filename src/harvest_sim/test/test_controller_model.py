@@ -49,6 +49,18 @@ def test_axes_follow_robot_yaml(model):
 def test_system_block(model):
     regs = model.read_holding(0, cm.SYSTEM_BLOCK_SIZE, 12.345)
     assert regs[:4] == [cm.IDENTITY, cm.MAP_VERSION, 8, 1234]
+    assert regs[cm.REG_SERIAL_NUMBER:cm.REG_SERIAL_NUMBER + 2] == [0, cm.DEFAULT_SERIAL_NUMBER]
+    assert regs[cm.REG_SERIAL_NUMBER + 2:] == [0] * (cm.SYSTEM_BLOCK_SIZE - 9)   # reserved
+
+
+def test_serial_number_registers():
+    m = ControllerModel(axes_from_robot_config(ROBOT), serial_number='0xC0FFEE01')
+    regs = m.read_holding(cm.REG_SERIAL_NUMBER, 2, 0.0)
+    assert regs == [0xC0FF, 0xEE01] and cm.join_uint32(*regs) == m.serial_number == 0xC0FFEE01
+    assert not m.valid('h', cm.REG_SERIAL_NUMBER, 2, write=True)        # read-only
+    for bad in (0, 2 ** 32, 'x'):
+        with pytest.raises(ValueError):
+            ControllerModel(axes_from_robot_config(ROBOT), serial_number=bad)
 
 
 def test_int32_round_trip():

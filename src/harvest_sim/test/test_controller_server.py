@@ -14,17 +14,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from harvest_sim import controller_map as cm  # noqa: E402
+from harvest_sim.instance import free_port  # noqa: E402
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config  # noqa: E402
-from harvest_sim.controller_server import (ControllerServer, apply_faults,  # noqa: E402
-                                           parse_fault_spec)
+from harvest_sim.controller_server import (BindError, ControllerServer,  # noqa: E402
+                                           apply_faults, parse_fault_spec)
 
 ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
-
-
-def free_port():
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        return s.getsockname()[1]
 
 
 class FakeClock(object):
@@ -137,3 +132,20 @@ def test_bad_fault_strings(text):
 def test_loopback_only():
     with pytest.raises(ValueError):
         ControllerServer(None, None, host='0.0.0.0')
+
+
+def test_port_taken_is_a_clear_error():
+    """Another program holds the port: start() names host:port and why, and stops its thread."""
+    with socket.socket() as other:
+        other.bind(('127.0.0.1', 0))
+        other.listen(1)
+        port = other.getsockname()[1]
+        with open(ROBOT_YAML) as f:
+            model = ControllerModel(axes_from_robot_config(yaml.safe_load(f)))
+        server = ControllerServer(model, FakeClock(), port=port)
+        with pytest.raises(BindError) as err:
+            server.start()
+        assert isinstance(err.value, OSError)
+        assert str(err.value) == ('cannot listen on 127.0.0.1:%d: the port is taken (another '
+                                  'simulated controller or program is on it)' % port)
+        assert not server.listening and not server._thread.is_alive()

@@ -17,7 +17,7 @@ sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from motion_pkg.modbus_driver import (Backoff, ConnectionLost, ControllerRefused,  # noqa: E402
                                       ModbusDriver)
-from motion_pkg.modbus_map import RegisterMap, split_int32  # noqa: E402
+from motion_pkg.modbus_map import RegisterMap, split_int32, split_uint32  # noqa: E402
 
 MAP = RegisterMap.from_file(os.path.join(HERE, '..', 'config', 'register_map.yaml'))
 
@@ -25,13 +25,14 @@ MAP = RegisterMap.from_file(os.path.join(HERE, '..', 'config', 'register_map.yam
 class PlainServer(object):
     """A register bank on a loopback port, served from a thread."""
 
-    def __init__(self, identity=0x4843):
+    def __init__(self, identity=0x4843, serial_number=1):
         with socket.socket() as s:
             s.bind(('127.0.0.1', 0))
             self.port = s.getsockname()[1]
         self.hr = ModbusSequentialDataBlock(0, [0] * 200)
         self.co = ModbusSequentialDataBlock(0, [False] * 8)
         self.hr.setValues(0, [identity, 1, 8])
+        self.hr.setValues(7, split_uint32(serial_number))      # 0: no identity block
         self.context = ModbusServerContext(slaves={1: ModbusSlaveContext(
             hr=self.hr, co=self.co, di=ModbusSequentialDataBlock(0, [False] * 8),
             ir=ModbusSequentialDataBlock(0, [0] * 8), zero_mode=True)}, single=False)
@@ -73,9 +74,9 @@ def server():
     srv.stop()
 
 
-def make_driver(port):
+def make_driver(port, serial_number=None):
     return ModbusDriver(MAP, '127.0.0.1', port, 1, timeout=0.5, backoff_first=0.1,
-                        backoff_max=0.4)
+                        backoff_max=0.4, serial_number=serial_number)
 
 
 def test_backoff_schedule():
@@ -169,3 +170,64 @@ def test_modbus_exception_keeps_connection(server):
     server.exception = 0
     driver.poll()
     driver.close()
+
+
+def untouched(srv):
+    """Nothing was written: system control, every command block and the coils read 0."""
+    return (srv.hr.getValues(4, 1) == [0] and srv.hr.getValues(100, 80) == [0] * 80
+            and srv.co.getValues(0, 8) == [False] * 8)
+
+
+def test_configured_controller_is_accepted():
+    srv = PlainServer(serial_number=0xC0FFEE01)
+    try:
+        driver = make_driver(srv.port, '0xC0FFEE01')
+        assert driver.ensure_connected(0.0)
+        assert driver.refused == '' and driver.last_error == ''
+        driver.halt_all()
+        assert srv.hr.getValues(4, 1) == [0b010]
+        driver.close()
+    finally:
+        srv.stop()
+
+
+@pytest.mark.parametrize('reported,expected_text', [
+    (4712, 'controller serial number 4712, expected 4711'),
+    (0, 'reports no serial number'),              # a controller without the identity block
+])
+def test_other_controller_is_refused_and_nothing_sent(reported, expected_text):
+    srv = PlainServer(serial_number=reported)
+    try:
+        driver = make_driver(srv.port, 4711)
+        assert not driver.ensure_connected(0.0)
+        assert not driver.connected and driver.connects == 0
+        assert expected_text in driver.refused and expected_text in driver.last_error
+        assert 'refused the controller at 127.0.0.1:%d' % srv.port in driver.refused
+        assert 'wrong controller' in driver.last_error
+        for command in (lambda: driver.move(0, 0.5), driver.enable_all, driver.halt_all,
+                        driver.shear, lambda: driver.set_suction(True), driver.poll):
+            with pytest.raises(ConnectionLost):
+                command()
+        assert not driver.ensure_connected(0.1)     # refused again at every attempt
+        assert driver.backoff.delay == 0.2 and expected_text in driver.refused
+        assert untouched(srv)
+    finally:
+        srv.stop()
+
+
+def test_refusal_clears_when_the_right_controller_answers():
+    srv = PlainServer(serial_number=5)
+    try:
+        driver = make_driver(srv.port, 6)
+        assert not driver.ensure_connected(0.0) and driver.refused
+        srv.hr.setValues(7, split_uint32(6))      # now the configured controller is there
+        assert driver.ensure_connected(1.0)
+        assert driver.refused == '' and driver.last_error == '' and driver.connects == 1
+        driver.close()
+    finally:
+        srv.stop()
+
+
+def test_bad_configured_serial_number():
+    with pytest.raises(ValueError):
+        make_driver(1, 0)

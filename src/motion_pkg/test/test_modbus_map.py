@@ -10,7 +10,8 @@ from hypothesis import given, settings, strategies as st
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
-from motion_pkg.modbus_map import RegisterMap, join_int32, split_int32  # noqa: E402
+from motion_pkg.modbus_map import (RegisterMap, join_int32, join_uint32,  # noqa: E402
+                                   parse_serial_number, split_int32, split_uint32)
 
 MAP = RegisterMap.from_file(os.path.join(HERE, '..', 'config', 'register_map.yaml'))
 
@@ -82,3 +83,54 @@ def test_identity_check():
     assert 'identity' in MAP.check_identity([0x1234, 1, 8])
     assert 'version' in MAP.check_identity([0x4843, 2, 8])
     assert 'axes' in MAP.check_identity([0x4843, 1, 6])
+
+
+def identity_block(serial_number, ident=0x4843, version=1, axes=8):
+    regs = [0] * MAP.identity_span()[1]
+    regs[0:3] = [ident, version, axes]
+    regs[7:9] = split_uint32(serial_number)
+    return regs
+
+
+def test_identity_span_covers_the_serial_number():
+    assert MAP.system['serial_number'] == 7
+    assert MAP.identity_span() == (0, 9)
+    start, count = MAP.poll_span()
+    assert (start, count) == (0, 80)            # the poll is unchanged by the identity block
+
+
+def test_uint32_words():
+    assert split_uint32(0xC0FFEE01) == [0xC0FF, 0xEE01]
+    assert join_uint32(0xC0FF, 0xEE01) == 0xC0FFEE01
+    assert join_uint32(*split_uint32(0xFFFFFFFF)) == 0xFFFFFFFF
+    with pytest.raises(ValueError):
+        split_uint32(-1)
+    with pytest.raises(ValueError):
+        split_uint32(2 ** 32)
+
+
+def test_serial_number_check():
+    assert MAP.check_identity(identity_block(4711), 4711) is None
+    assert MAP.check_identity(identity_block(4711)) is None             # None: any serial
+    problem = MAP.check_identity(identity_block(4712), 4711)
+    assert problem == 'controller serial number 4712, expected 4711'
+    problem = MAP.check_identity(identity_block(0xC0FFEE01), 0xC0FFEE02)   # both words count
+    assert 'serial number 3237998081, expected 3237998082' in problem
+    no_block = [0x4843, 1, 8] + [0] * 6          # a controller without the register reads 0
+    assert 'no serial number' in MAP.check_identity(no_block, 4711)
+    # the map's own checks come first: a foreign device is named as such
+    assert 'identity' in MAP.check_identity(identity_block(4711, ident=0x1234), 4711)
+    with pytest.raises(ValueError):
+        MAP.check_identity([0x4843, 1, 8], 4711)   # too short to hold the serial number
+
+
+@pytest.mark.parametrize('value,number', [(1, 1), ('4711', 4711), (' 0x10 ', 16),
+                                          ('4294967295', 0xFFFFFFFF)])
+def test_parse_serial_number(value, number):
+    assert parse_serial_number(value) == number
+
+
+@pytest.mark.parametrize('value', [0, -3, '0', 2 ** 32, 'abc', '', None, True, 1.5])
+def test_bad_serial_numbers(value):
+    with pytest.raises(ValueError):
+        parse_serial_number(value)

@@ -11,7 +11,6 @@ Usage (workspace built and sourced; Debian packages xvfb and imagemagick):
 import argparse
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -19,13 +18,7 @@ import threading
 import time
 from rospy.rostime import wallsleep  # wall time on purpose: the harness measures sim vs wall time
 
-
-def free_port():
-    s = socket.socket()
-    s.bind(('127.0.0.1', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
+from harvest_sim.instance import free_port, sim_launch_args
 
 
 def free_display(start):
@@ -103,7 +96,7 @@ def main():
     try:
         h.start('sim', ['roslaunch', '-p', str(h.port), 'harvest_bringup', 'sim.launch', 'scenario:=' + args.scenario,
                         'time_scale:=%g' % args.time_scale, 'db_path:=' + os.path.join(h.logdir, 'sim.db'),
-                        'mission_id:=screenshot-demo'])
+                        'mission_id:=screenshot-demo'] + sim_launch_args())
         import rosgraph
         deadline = time.time() + 90
         while not rosgraph.is_master_online(h.master):

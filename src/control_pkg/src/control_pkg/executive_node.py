@@ -13,9 +13,10 @@ Node `task_planner`
   Params: ~mission_id, ~picking_points (list of indices; default all of /track/picking_points),
     ~autostart (true), ~shutdown_when_done (false), and everything of config/executive.yaml.
 """
-import json
 import math
+import os
 import threading
+import time
 
 import rospy
 from std_msgs.msg import Bool, Int32MultiArray, String
@@ -99,7 +100,9 @@ class TaskPlanner(object):
         except ValueError as exc:
             rospy.logfatal('task_planner: bad configuration: %s', exc)
             raise
-        self.mission_id = rospy.get_param('~mission_id', '') or 'mission-%d' % int(rospy.get_time() * 1000)
+        # wall clock, not ROS time: rospy.get_time() is 0 before the first /clock under sim time
+        self.mission_id = rospy.get_param('~mission_id', '') or mission_lib.make_mission_id(
+            time.time(), os.urandom(2).hex())
         self._plan = None
         self._plan_received = threading.Event()
         self._plan_sub = rospy.Subscriber('plan/picking_points', Int32MultiArray, self._plan_cb, queue_size=1)
@@ -236,8 +239,9 @@ class TaskPlanner(object):
         totals = self.recorder.totals()
         totals['outcome'] = self.outcome
         totals['last_error'] = self.context.last_error
-        self._summary_pub.publish(String(data=json.dumps(totals, default=str)))
-        self.publish_event('summary', '', json.dumps(totals, default=str))
+        summary = mission_lib.summary_json(totals)       # strict JSON: null, never NaN
+        self._summary_pub.publish(String(data=summary))
+        self.publish_event('summary', '', summary)
         rospy.loginfo('task_planner: mission %s ended %s: picked %d, unreachable %d, lost %d, failed %d',
                       self.mission_id, self.outcome, totals['picked'], totals['unreachable'], totals['lost'],
                       totals['failed'])

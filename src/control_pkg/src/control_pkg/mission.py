@@ -3,6 +3,8 @@
 The record keeps, per fruit, the time spent in each state and the outcome (picked, unreachable,
 lost, failed with reason), and per run the totals that `make demo` prints.
 """
+import datetime
+import json
 import math
 import threading
 
@@ -163,11 +165,48 @@ class MissionRecorder(object):
             'unreachable': self.count(OUTCOME_UNREACHABLE),
             'lost': self.count(OUTCOME_LOST),
             'failed': self.count(OUTCOME_FAILED),
-            'mean_cycle_time': self.mean_cycle_time(),
-            'duration': (self.end_time - self.start_time)
-            if (self.start_time is not None and self.end_time is not None) else float('nan'),
+            'mean_cycle_time': finite_or_none(self.mean_cycle_time()),     # None: nothing picked
+            'duration': finite_or_none((self.end_time - self.start_time)
+                                       if (self.start_time is not None and self.end_time is not None)
+                                       else None),
             'errors': list(self.errors),
         }
+
+
+def finite_or_none(value):
+    """value when it is a finite number, else None (JSON null): strict JSON has no NaN."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isfinite(value):
+        return None
+    return value
+
+
+def _strict(value):
+    if isinstance(value, dict):
+        return dict((k, _strict(v)) for k, v in value.items())
+    if isinstance(value, (list, tuple)):
+        return [_strict(v) for v in value]
+    return finite_or_none(value)
+
+
+def summary_json(totals):
+    """The mission summary as strict JSON: NaN and infinities become null (never `NaN`)."""
+    return json.dumps(_strict(totals), default=str, allow_nan=False)
+
+
+def make_mission_id(wall_time, token):
+    """A mission id unique across runs and readable: UTC start (wall clock) and a random token.
+
+    wall_time: seconds since the epoch (time.time(); not ROS time, which is 0 under
+    /use_sim_time before the first /clock and restarts with each simulation); token: a short
+    string (e.g. 4 hex digits) telling apart missions started in the same second.
+    E.g. 'mission-20240521T081530Z-3fa9'.
+    """
+    if not isinstance(wall_time, (int, float)) or not math.isfinite(wall_time) or wall_time <= 0:
+        raise ValueError('wall_time must be a positive number of seconds, got %r' % (wall_time,))
+    if not token:
+        raise ValueError('token must not be empty')
+    stamp = datetime.datetime.fromtimestamp(wall_time, datetime.timezone.utc).strftime('%Y%m%dT%H%M%SZ')
+    return 'mission-%s-%s' % (stamp, token)
 
 
 def summary_line(picked, ripe_reachable, damaged, skipped, mean_cycle, wall):

@@ -10,7 +10,7 @@ whole stack reaches.
    cloud), the detector on the right image, the point-cloud decoding and localisation of
    image_processing, a tf2 lookup.
 3. Whole-stack runs: for every --scales value a private master (free port) runs
-   `harvest_bringup sim.launch` (simulated plant factory + the whole robot stack) on --scenario
+   `harvest_bringup sim.launch` (its own controller port and serial number: harvest_sim.instance) (simulated plant factory + the whole robot stack) on --scenario
    to the end of the mission; prints the speed reached (simulated / wall seconds from the first
    /clock tick to the mission summary), the mission's result from the simulator's ground truth
    and the executive's mean cycle time. With --profile, the run at --profile-scale also prints
@@ -25,7 +25,6 @@ import json
 import math
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -34,6 +33,8 @@ import time
 
 import numpy as np
 from rospy.rostime import wallsleep  # wall time on purpose: the harness measures sim vs wall time
+
+from harvest_sim import instance
 
 #: rows of the per-node profile: (label, node names, topic whose frames the node handles)
 PROFILE_ROWS = (
@@ -230,14 +231,6 @@ def stage_costs(scenario_name, repeat=7):
     return out
 
 
-def _free_port():
-    s = socket.socket()
-    s.bind(('127.0.0.1', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
 def _cpu_by_node(root_pid):
     """{node name: CPU seconds} of every process below root_pid (from /proc)."""
     tick = os.sysconf('SC_CLK_TCK')
@@ -291,7 +284,7 @@ def stack_run(scenario_name, time_scale, wall_limit, profile, launch_args):
 
 
 def _stack_run_here(scenario_name, time_scale, wall_limit, profile, launch_args):
-    port = _free_port()
+    port = instance.free_port()
     master = 'http://127.0.0.1:%d' % port
     os.environ.update({'ROS_MASTER_URI': master, 'ROS_HOSTNAME': 'localhost'})
     workdir = tempfile.mkdtemp(prefix='bench_sim_')
@@ -313,7 +306,7 @@ def _stack_run_here(scenario_name, time_scale, wall_limit, profile, launch_args)
         wall0 = time.time()
         launch = subprocess.Popen(
             ['roslaunch', 'harvest_bringup', 'sim.launch', 'scenario:=%s' % scenario_name,
-             'time_scale:=%g' % time_scale, 'controller_port:=%d' % _free_port(),
+             'time_scale:=%g' % time_scale] + instance.sim_launch_args() + [
              'db_path:=%s' % os.path.join(workdir, 'bench.db'),
              'mission_id:=bench-%s-%g' % (scenario_name, time_scale)] + list(launch_args),
             stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
@@ -471,7 +464,7 @@ def run_line(scale, res):
 
 # ---------------------------------------------------------------------- simulator alone
 def live_run(scenario_name, seconds, time_scale, controller):
-    port = _free_port()
+    port = instance.free_port()
     env = dict(os.environ, ROS_MASTER_URI='http://127.0.0.1:%d' % port)
     os.environ['ROS_MASTER_URI'] = env['ROS_MASTER_URI']
     procs = []
@@ -488,7 +481,9 @@ def live_run(scenario_name, seconds, time_scale, controller):
             wallsleep(0.2)
         launch = subprocess.Popen(
             ['roslaunch', 'harvest_sim', 'sim_robot.launch', 'scenario:=' + scenario_name,
-             'time_scale:=%g' % time_scale, 'controller:=%s' % str(controller).lower()],
+             'time_scale:=%g' % time_scale, 'controller:=%s' % str(controller).lower(),
+             'modbus_port:=%d' % instance.free_port(),
+             'controller_serial:=%d' % instance.new_serial_number()],
             env=env, stdout=devnull, stderr=devnull)
         procs.append(launch)
         return _measure(seconds, controller, launch.pid)

@@ -52,7 +52,7 @@ from std_msgs.msg import Empty
 from harvest_sim import camera_model, names, render
 from harvest_sim.frame_timing import frame_stamp
 from harvest_sim.msg import ClockHold, SimFruitArray
-from harvest_sim.world_node import default_robot_config, load_scenario_param
+from harvest_sim.world_node import load_robot_config, load_scenario_param
 from motion_pkg.kinematics import RobotGeometry
 
 KINDS = {
@@ -144,8 +144,7 @@ class SimCameraNode(object):
         camera = camera_model.PinholeCamera.from_hfov(rospy.get_param('~width', d['width']),
                                                       rospy.get_param('~height', d['height']),
                                                       rospy.get_param('~hfov_deg', d['hfov_deg']))
-        self.geom = RobotGeometry.from_yaml(rospy.get_param('~robot_config', '') or
-                                            default_robot_config())
+        self.geom = RobotGeometry(load_robot_config())
         seed = rospy.get_param('~seed', self.scenario.seed)
         self.renderer = render.Renderer(self.scenario, seed,
                                         noise_sigma=rospy.get_param('~noise_sigma', 2.0))

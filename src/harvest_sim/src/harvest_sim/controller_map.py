@@ -10,10 +10,13 @@ Numbers: 32-bit values are signed two's complement in two consecutive registers,
 """
 
 import math
-from motion_pkg.modbus_map import join_int32, split_int32  # noqa: F401 (the one int32 codec of the wire format)
+# the one codec of the wire format, shared with the driver
+from motion_pkg.modbus_map import (join_int32, join_uint32, parse_serial_number,  # noqa: F401
+                                   split_int32, split_uint32)
 
 MAP_VERSION = 1
 IDENTITY = 0x4843             # "HC": harvest controller
+DEFAULT_SERIAL_NUMBER = 1     # sim_controller ~serial_number, motion_server ~controller_serial
 
 # --- holding registers, system block -----------------------------------------------------
 REG_IDENTITY = 0              # RO  constant IDENTITY
@@ -23,6 +26,7 @@ REG_HEARTBEAT = 3             # RO  controller time in 10 ms ticks, modulo 65536
 REG_SYSTEM_CONTROL = 4        # RW  pulse bits below, read back as 0
 REG_IO_STATUS = 5             # RO  mirror of coils and discrete inputs, bits below
 REG_SHEAR_COUNT = 6           # RO  completed shear strokes (blade closures), modulo 65536
+REG_SERIAL_NUMBER = 7         # RO  uint32 (7-8, high word first): this controller's serial number
 SYSTEM_BLOCK_SIZE = 16
 
 SYS_ENABLE_ALL = 0            # set the enable bit of every axis

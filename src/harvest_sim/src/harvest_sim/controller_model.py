@@ -14,6 +14,7 @@ import threading
 
 from harvest_sim import controller_map as cm
 from harvest_sim.controller_profile import plan_move, plan_stop
+from visualization_pkg import robot_config
 
 HALF_COUNT = 0.5
 
@@ -37,7 +38,11 @@ class AxisConfig(object):
 
 
 def axes_from_robot_config(robot_yaml, initial=None):
-    """AxisConfig list in controller order from the parsed robot.yaml dictionary."""
+    """AxisConfig list in controller order from the parsed robot.yaml dictionary.
+
+    The dictionary is validated first (visualization_pkg.robot_config): a NaN limit or speed
+    raises RobotConfigError naming the field instead of a model that cannot move."""
+    robot_config.validate(robot_yaml)
     initial = initial or {}
     robot = robot_yaml['robot']
     motion = robot_yaml['motion']
@@ -183,8 +188,11 @@ class ControllerModel(object):
     """All axes plus the suction valve, vacuum sensor and pneumatic shear."""
 
     def __init__(self, axis_configs, suction_build_up=0.5, shear_stroke=0.3, shear_hold=0.2,
-                 t0=0.0):
+                 t0=0.0, serial_number=cm.DEFAULT_SERIAL_NUMBER):
+        """serial_number: what the identity block reports (1..4294967295, int or text)."""
         self._lock = threading.RLock()
+        self.serial_number = cm.parse_serial_number(serial_number)
+        self._serial_words = cm.split_uint32(self.serial_number)
         self.axes = [SimAxis(c) for c in axis_configs]
         self.names = [c.name for c in axis_configs]
         self.suction_build_up = float(suction_build_up)
@@ -364,6 +372,8 @@ class ControllerModel(object):
                 cm.REG_HEARTBEAT: int(math.floor(t * 100.0)) & 0xFFFF,
                 cm.REG_IO_STATUS: self._io_status(t),
                 cm.REG_SHEAR_COUNT: self.shear_count,
+                cm.REG_SERIAL_NUMBER: self._serial_words[0],
+                cm.REG_SERIAL_NUMBER + 1: self._serial_words[1],
             }.get(address, 0)
         if cm.FEEDBACK_BASE <= address < cm.FEEDBACK_BASE + cm.FEEDBACK_STRIDE * n_axes:
             axis, offset = divmod(address - cm.FEEDBACK_BASE, cm.FEEDBACK_STRIDE)

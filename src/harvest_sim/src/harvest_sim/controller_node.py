@@ -19,9 +19,13 @@ Services:
   ~set_server_enabled (std_srvs/SetBool) open/close the Modbus TCP listener
 Parameters:
   ~host (127.0.0.1, loopback only), ~port (5020), ~unit_id (1),
+  ~serial_number (1; the identity block's serial number, registers 7-8: the robot's driver
+  refuses a controller whose serial number is not its ~controller_serial),
   ~robot_config (path of robot.yaml; default visualization_pkg/config/robot.yaml),
   ~initial_positions ({axis: value}, SI units), ~publish_rate (60 Hz), ~shear_hold (0.2 s),
   ~fault ("" = normal; see controller_server.FAULT_SYNTAX), applied at start-up too.
+An address that cannot be bound (or is not loopback) or a bad ~serial_number raises
+StartupError: scripts/sim_controller logs it fatal and exits 1.
 """
 
 import os
@@ -34,6 +38,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Header
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
+from harvest_sim import controller_map as cm
 from harvest_sim import names
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config
 from harvest_sim.controller_server import ControllerServer, apply_faults, parse_fault_spec
@@ -42,6 +47,11 @@ from harvest_sim.msg import SimActivity
 
 def default_robot_config():
     return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+
+
+class StartupError(Exception):
+    """The node cannot do its job (its address cannot be bound, a bad parameter): the script
+    logs it as fatal and exits non-zero, and the launch (required="true") ends."""
 
 
 class SimControllerNode(object):
@@ -53,27 +63,40 @@ class SimControllerNode(object):
             robot = yaml.safe_load(stream)
         motion = robot['motion']
         configs = axes_from_robot_config(robot, rospy.get_param('~initial_positions', {}))
+        try:
+            serial_number = cm.parse_serial_number(
+                rospy.get_param('~serial_number', cm.DEFAULT_SERIAL_NUMBER))
+        except ValueError as exc:
+            raise StartupError('~serial_number: %s' % exc)
         self.model = ControllerModel(configs, motion['suction_build_up'], motion['shear_stroke'],
-                                     rospy.get_param('~shear_hold', 0.2), rospy.get_time())
+                                     rospy.get_param('~shear_hold', 0.2), rospy.get_time(),
+                                     serial_number)
         self.joint_names = [c.name + '_joint' for c in configs]
         self._lock = threading.Lock()
         self.activity_pub = rospy.Publisher(names.ACTIVITY, SimActivity, queue_size=50,
                                             tcp_nodelay=True)
         self._busy_until = None
         self._activity_lock = threading.Lock()
-        self.server = ControllerServer(self.model, rospy.get_time,
-                                       rospy.get_param('~host', '127.0.0.1'),
-                                       rospy.get_param('~port', 5020),
-                                       rospy.get_param('~unit_id', 1),
-                                       on_write=self._on_write)
+        try:
+            self.server = ControllerServer(self.model, rospy.get_time,
+                                           rospy.get_param('~host', '127.0.0.1'),
+                                           rospy.get_param('~port', 5020),
+                                           rospy.get_param('~unit_id', 1),
+                                           on_write=self._on_write)
+        except ValueError as exc:                  # not a loopback address
+            raise StartupError(str(exc))
         self.joint_pub = rospy.Publisher('joint_states', JointState, queue_size=10)
         self.valve_pub = rospy.Publisher('suction_valve', Bool, queue_size=10, latch=True)
         self.cut_pub = rospy.Publisher('shear_cut', Header, queue_size=10)
         self.valve_pub.publish(Bool(data=False))
         rospy.Subscriber('suction_sealed', Bool, self._on_sealed, queue_size=10)
-        self.server.start()
-        rospy.loginfo('simulated motion controller on %s:%d unit %d (%d axes)', self.server.host,
-                      self.server.port, self.server.unit, len(configs))
+        try:
+            self.server.start()
+        except OSError as exc:
+            raise StartupError(str(exc))
+        rospy.loginfo('simulated motion controller on %s:%d unit %d, serial number %d (%d axes)',
+                      self.server.host, self.server.port, self.server.unit, serial_number,
+                      len(configs))
         startup_fault = rospy.get_param('~fault', '')
         if startup_fault:
             rospy.logwarn('start-up fault: %s', self._apply(startup_fault))

@@ -16,7 +16,9 @@ real controller or network does (each is observable by any Modbus client):
 
 import asyncio
 import contextvars
+import errno
 import logging
+import socket
 import threading
 
 from pymodbus.datastore import ModbusServerContext
@@ -90,6 +92,24 @@ class _ModelContext(ModbusBaseSlaveContext):
             self._server.on_write(t)
 
 
+class BindError(OSError):
+    """The controller's Modbus TCP address cannot be bound."""
+
+
+def bind_problem(host, port):
+    """Why host:port cannot be bound, in words (pymodbus only says that listening failed)."""
+    try:
+        family = socket.AF_INET6 if ':' in host else socket.AF_INET
+        with socket.socket(family, socket.SOCK_STREAM) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)   # as asyncio does
+            probe.bind((host, port))
+    except OSError as exc:
+        if exc.errno == errno.EADDRINUSE:
+            return 'the port is taken (another simulated controller or program is on it)'
+        return exc.strerror or str(exc)
+    return 'the listener failed (the address is free now)'
+
+
 class ControllerServer(object):
     """Serves the model over Modbus TCP from a background thread."""
 
@@ -119,10 +139,13 @@ class ControllerServer(object):
         return asyncio.run_coroutine_threadsafe(coro, self._loop).result(OP_TIMEOUT)
 
     def start(self):
-        """Start the thread and listen; raises OSError when the port cannot be bound."""
+        """Start the thread and listen; raises BindError (an OSError) naming host:port and the
+        reason when the address cannot be bound. The thread is stopped again then."""
         self._thread.start()
         if not self.set_listening(True):
-            raise OSError('cannot listen on %s:%d' % (self.host, self.port))
+            self.stop()
+            raise BindError('cannot listen on %s:%d: %s' % (self.host, self.port,
+                                                            bind_problem(self.host, self.port)))
 
     def stop(self):
         """Close everything and end the thread."""

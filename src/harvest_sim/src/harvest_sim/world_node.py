@@ -14,7 +14,8 @@ Services:
   get_summary (harvest_sim/GetSimSummary)        counts by state
 Parameters:
   ~scenario (required): scenario name (scenarios/NAME.yaml) or file path
-  ~robot_config: robot.yaml path (default visualization_pkg/config/robot.yaml)
+  ~robot_config: robot.yaml path (default visualization_pkg/config/robot.yaml); a bad file
+    (visualization_pkg.robot_config) ends the node at start: one fatal line, exit code 1
   ~seal_tolerance (0.012 m), ~cut_tolerance (0.010 m), ~tear_distance (0.12 m),
   ~publish_rate (10 Hz, ROS time), ~motion_rate (30 Hz: most often a moving held fruit is
   republished; state changes are published at once)
@@ -36,6 +37,7 @@ from harvest_sim.msg import SimFruit, SimFruitArray
 from harvest_sim.srv import GetSimSummary, GetSimSummaryResponse
 from harvest_sim.world import World
 from motion_pkg.kinematics import RobotGeometry
+from visualization_pkg import robot_config
 
 
 #: s of ROS time a stamped shear close waits for a joint state as recent as itself
@@ -44,6 +46,12 @@ CUT_WAIT = 0.5
 
 def default_robot_config():
     return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+
+
+def load_robot_config():
+    """Validated robot.yaml from ~robot_config; a bad file: one fatal line, exit code 1."""
+    return robot_config.load_or_exit(rospy.get_param('~robot_config', '') or
+                                     default_robot_config(), rospy.logfatal)
 
 
 def scenarios_dir():
@@ -95,8 +103,7 @@ def fruit_array(world, stamp):
 class SimWorldNode(object):
     def __init__(self):
         scenario = load_scenario_param()
-        geom = RobotGeometry.from_yaml(rospy.get_param('~robot_config', '') or
-                                       default_robot_config())
+        geom = RobotGeometry(load_robot_config())
         self.world = World(scenario, geom,
                            rospy.get_param('~seal_tolerance', 0.012),
                            rospy.get_param('~cut_tolerance', 0.010),

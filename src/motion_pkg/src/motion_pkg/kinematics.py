@@ -42,7 +42,8 @@ import math
 from collections import namedtuple
 
 import numpy as np
-import yaml
+
+from visualization_pkg import robot_config
 
 ARMS = ('left', 'right')
 TOOL_FRAME = {'left': 'left_shear_tcp', 'right': 'right_suction_tcp'}
@@ -163,7 +164,8 @@ class RobotGeometry(object):
     """Geometry, forward and inverse kinematics of the robot described by robot.yaml."""
 
     def __init__(self, config):
-        """config: the parsed robot.yaml (dict with key 'robot', optionally 'motion')."""
+        """config: the parsed robot.yaml; refused (RobotConfigError) unless it is valid."""
+        robot_config.validate(config)
         robot = config['robot']
         self.config = config
         self.track_axis = tuple(float(v) for v in robot['track']['axis'])
@@ -192,9 +194,8 @@ class RobotGeometry(object):
 
     @classmethod
     def from_yaml(cls, path):
-        """Load robot.yaml from a file path."""
-        with open(path) as f:
-            return cls(yaml.load(f, Loader=yaml.SafeLoader))
+        """Load robot.yaml from a file path (RobotConfigError naming the file and field if bad)."""
+        return cls(robot_config.load(path))
 
     # ------------------------------------------------------------------ frame tree
     def _joint_defs(self):

@@ -13,7 +13,8 @@ invalid goals: NaN, negative standoff, no transform.
 
 Subscribed: joint_states (sensor_msgs/JointState; partial messages are merged).
 Params:
-  ~robot_description_yaml  robot.yaml path (default: visualization_pkg/config/robot.yaml)
+  ~robot_description_yaml  robot.yaml path (default: visualization_pkg/config/robot.yaml);
+                           a bad file ends the node at start (one fatal line, exit code 1)
   ~base_frame              frame the IK works in: base_link (default; waist angle from
                            joint_states) or waist_link (waist angle taken as 0)
   ~tf_timeout              seconds to wait for a transform of the goal point (default 0.2)
@@ -32,6 +33,7 @@ from harvest_msgs.msg import KinematicsAction, KinematicsFeedback, KinematicsRes
 from sensor_msgs.msg import JointState
 
 from motion_pkg.kinematics import HOME_JOINTS, OTHER_ARM, RobotGeometry
+from visualization_pkg import robot_config
 
 ACTION_NAME = 'kinematics'
 JOINT_STATES_TOPIC = 'joint_states'
@@ -55,7 +57,8 @@ class KinematicsServer(object):
 
     def __init__(self):
         path = rospy.get_param('~robot_description_yaml', '') or default_robot_yaml()
-        self.geometry = RobotGeometry.from_yaml(path)
+        # a bad robot.yaml: one fatal line naming file and field, exit 1
+        self.geometry = RobotGeometry(robot_config.load_or_exit(path, rospy.logfatal))
         self.base_frame = rospy.get_param('~base_frame', 'base_link')
         self.tf_timeout = rospy.Duration(float(rospy.get_param('~tf_timeout', 0.2)))
         self._lock = threading.Lock()

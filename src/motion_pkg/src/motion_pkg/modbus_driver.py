@@ -6,6 +6,12 @@ failure (refused, closed by the peer, no answer within ``timeout``) closes the s
 driver disconnected and raises :class:`ConnectionLost`; :meth:`ensure_connected` reconnects
 with exponential back-off. A Modbus exception answer raises :class:`ControllerRefused` and keeps
 the connection.
+
+Every new connection starts with one read of the identity block. A controller that is not the
+one the driver is for (identity, map version, axis count, or a serial number other than
+``serial_number``) is refused before anything is written: the socket is closed, the driver
+stays disconnected, ``refused`` and ``last_error`` say why, and it tries again with back-off
+(the right controller may come back on that address).
 """
 
 import logging
@@ -15,7 +21,7 @@ from pymodbus.client import ModbusTcpClient
 from pymodbus.exceptions import ModbusException
 from pymodbus.pdu import ExceptionResponse
 
-from motion_pkg.modbus_map import RegisterMap
+from motion_pkg.modbus_map import RegisterMap, parse_serial_number
 
 MODBUS_EXCEPTIONS = {
     1: 'illegal function', 2: 'illegal data address', 3: 'illegal data value',
@@ -35,6 +41,10 @@ class ConnectionLost(DriverError):
 
 class ControllerRefused(DriverError):
     """The controller answered with a Modbus exception."""
+
+
+class WrongController(ConnectionLost):
+    """The controller at the address is not the one this driver drives."""
 
 
 class Backoff(object):
@@ -62,7 +72,9 @@ class ModbusDriver(object):
     """Talks to the controller through the register map."""
 
     def __init__(self, regmap, host, port=502, unit=1, timeout=0.25, backoff_first=0.1,
-                 backoff_max=2.0):
+                 backoff_max=2.0, serial_number=None):
+        """serial_number: the serial number the controller must report (int or text, see
+        modbus_map.parse_serial_number); None accepts any (the map's own checks only)."""
         if not isinstance(regmap, RegisterMap):
             regmap = RegisterMap.from_file(regmap)
         self.map = regmap
@@ -70,11 +82,13 @@ class ModbusDriver(object):
         self.port = int(port)
         self.unit = int(unit)
         self.timeout = float(timeout)
+        self.serial_number = None if serial_number is None else parse_serial_number(serial_number)
         self.backoff = Backoff(backoff_first, backoff_max)
         self._client = ModbusTcpClient(host, port=self.port, timeout=self.timeout, retries=0)
         self._lock = threading.RLock()
         self.connected = False
         self.last_error = 'not connected yet'
+        self.refused = ''          # why the last controller reached was refused ('' = it was not)
         self.connects = 0
         self.failures = 0
         logging.getLogger('pymodbus').setLevel(logging.CRITICAL)
@@ -83,7 +97,8 @@ class ModbusDriver(object):
     def ensure_connected(self, now):
         """Connect when disconnected and the back-off allows; True when connected.
 
-        A fresh connection is verified against the map (identity, version, axis count).
+        A fresh connection is verified against the map (identity, version, axis count) and the
+        serial number before anything is written; a wrong controller is refused.
         """
         with self._lock:
             if self.connected:
@@ -94,19 +109,24 @@ class ModbusDriver(object):
                 if not self._client.connect():
                     raise ConnectionLost('connection refused or host unreachable')
                 self.connected = True
-                regs = self._read(min(self.map.system.values()), 3)
-                problem = self.map.check_identity(regs)
+                regs = self._read(*self.map.identity_span())
+                problem = self.map.check_identity(regs, self.serial_number)
                 if problem:
-                    raise ConnectionLost(problem)
+                    error = WrongController('refused the controller at %s:%d: %s; nothing is '
+                                            'sent to it' % (self.host, self.port, problem))
+                    error.reason = 'wrong controller refused (%s)' % problem
+                    raise error
             except DriverError as exc:
                 self.connected = False
                 self._client.close()
                 self.last_error = getattr(exc, 'reason', '') or str(exc)
+                self.refused = str(exc) if isinstance(exc, WrongController) else ''
                 self.backoff.failed(now)
                 return False
             self.backoff.reset()
             self.connects += 1
             self.last_error = ''
+            self.refused = ''
             return True
 
     def close(self):

@@ -20,8 +20,36 @@ def split_int32(value):
 
 def join_int32(high, low):
     """[high word, low word] -> signed int32."""
-    raw = ((int(high) & 0xFFFF) << 16) | (int(low) & 0xFFFF)
+    raw = join_uint32(high, low)
     return raw - 2 ** 32 if raw >= 2 ** 31 else raw
+
+
+def split_uint32(value):
+    """Unsigned int32 -> [high word, low word]."""
+    value = int(value)
+    if not 0 <= value <= 0xFFFFFFFF:
+        raise ValueError('value %d does not fit in uint32' % value)
+    return [value >> 16, value & 0xFFFF]
+
+
+def join_uint32(high, low):
+    """[high word, low word] -> unsigned int32."""
+    return ((int(high) & 0xFFFF) << 16) | (int(low) & 0xFFFF)
+
+
+def parse_serial_number(value):
+    """A controller serial number from a parameter: int, or text in decimal or 0x hex.
+
+    1..4294967295 (the uint32 of the identity block; 0 is what a controller without one reads).
+    Text lets launch files pass values beyond XML-RPC's signed 32-bit integers.
+    """
+    try:
+        number = value if isinstance(value, int) else int(str(value).strip(), 0)
+    except ValueError:
+        raise ValueError('serial number %r is not an integer (decimal or 0x hex)' % (value,))
+    if isinstance(number, bool) or not 1 <= number <= 0xFFFFFFFF:
+        raise ValueError('serial number %r is outside 1..4294967295' % (value,))
+    return number
 
 
 class AxisInfo(object):
@@ -180,8 +208,21 @@ class RegisterMap(object):
         return ControllerState(reg(self.system['heartbeat']), reg(self.system['io_status']),
                                reg(self.system['shear_count']), axes, self.io_bits)
 
-    def check_identity(self, registers):
-        """System block registers (from address 0) -> None or a text saying what is wrong."""
+    def identity_span(self):
+        """(start, count) of the one read that covers the identity block: identity, map
+        version, axis count and the serial number (uint32)."""
+        addresses = [self.system[k] for k in ('identity', 'map_version', 'axis_count')]
+        if 'serial_number' in self.system:
+            addresses.append(self.system['serial_number'] + 1)
+        start = min(self.system.values())
+        return start, max(addresses) + 1 - start
+
+    def check_identity(self, registers, serial_number=None):
+        """Registers of identity_span() -> None or a text saying what is wrong.
+
+        serial_number: the one controller this driver may drive (None: any serial number; the
+        register map's own checks only, and then the first three registers suffice).
+        """
         ident = registers[self.system['identity']]
         version = registers[self.system['map_version']]
         count = registers[self.system['axis_count']]
@@ -191,6 +232,18 @@ class RegisterMap(object):
             return 'controller register map version %d, driver expects %d' % (version, self.version)
         if count != len(self.axes):
             return 'controller has %d axes, register map lists %d' % (count, len(self.axes))
+        if serial_number is not None:
+            if 'serial_number' not in self.system:
+                raise ValueError('the register map has no serial_number register')
+            address = self.system['serial_number']
+            if len(registers) < address + 2:
+                raise ValueError('identity check needs registers up to %d' % (address + 1))
+            got = join_uint32(registers[address], registers[address + 1])
+            if got == 0:
+                return ('controller reports no serial number (registers %d-%d read 0), expected '
+                        '%d' % (address, address + 1, serial_number))
+            if got != serial_number:
+                return 'controller serial number %d, expected %d' % (got, serial_number)
         return None
 
     # --- encoding ----------------------------------------------------------------------

@@ -12,6 +12,8 @@ MoveRobot ``succeed`` codes (result of ``move_robot``):
 
 import math
 
+from visualization_pkg import robot_config
+
 SUCCESS = 1
 FAILURE = 0
 INVALID_GOAL = -1
@@ -48,7 +50,8 @@ class AxisLimits(object):
 
 
 def limits_from_robot_config(robot_yaml):
-    """{axis name: AxisLimits} from the parsed robot.yaml."""
+    """{axis name: AxisLimits} from the parsed robot.yaml (RobotConfigError when it is bad)."""
+    robot_config.validate(robot_yaml)
     robot = robot_yaml['robot']
     motion = robot_yaml['motion']
     limits = {}
@@ -120,6 +123,45 @@ def move_duration(distance, speed, acceleration):
     if dist >= speed * speed / acceleration:
         return dist / speed + speed / acceleration
     return 2.0 * math.sqrt(dist / acceleration)
+
+
+def plan_axes_move(names, targets, speeds, starts, limits, timeout_factor, timeout_margin,
+                   encode=None):
+    """Check every value of a multi-axis move before anything is written; returns the time
+    budget (s: slowest profile * factor + margin) or raises GoalError.
+
+    names/targets/speeds/starts: per axis (SI units); limits: {name: AxisLimits}. Every target,
+    speed, acceleration and start must be finite, speeds and accelerations > 0, the budget
+    finite. ``encode(name, target, speed, acceleration)``, when given, converts the command to
+    registers (e.g. RegisterMap.encode_move); its ValueError or OverflowError (a value that does
+    not fit) becomes a GoalError too. So no NaN or overflow reaches the integer conversion of the registers and
+    no axis of a goal starts unless every axis of it can.
+    """
+    durations = []
+    for name, target, speed, start in zip(names, targets, speeds, starts):
+        lim = limits[name]
+        values = (('target', target), ('speed', speed), ('acceleration', lim.acceleration),
+                  ('current position', start))
+        for what, value in values:
+            if not _finite([value]):
+                raise GoalError('%s %s is not a finite number: %r' % (name, what, value))
+        if not speed > 0.0 or not lim.acceleration > 0.0:
+            raise GoalError('%s needs speed and acceleration > 0, got %r and %r'
+                            % (name, speed, lim.acceleration))
+        durations.append(move_duration(target - start, speed, lim.acceleration))
+    if not durations:
+        raise GoalError('a move needs at least one axis')
+    budget = max(durations) * timeout_factor + timeout_margin
+    if not (_finite([timeout_factor, timeout_margin, budget]) and budget > 0.0):
+        raise GoalError('move deadline is not a finite positive time (factor %r, margin %r)'
+                        % (timeout_factor, timeout_margin))
+    if encode is not None:
+        for name, target, speed in zip(names, targets, speeds):
+            try:
+                encode(name, target, speed, limits[name].acceleration)
+            except (ValueError, OverflowError) as exc:    # does not fit the registers
+                raise GoalError('%s command cannot be sent: %s' % (name, exc))
+    return budget
 
 
 def _plain(value):

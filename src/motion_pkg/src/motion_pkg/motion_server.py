@@ -23,7 +23,6 @@ import actionlib
 import diagnostic_updater
 import rospkg
 import rospy
-import yaml
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from harvest_msgs.msg import (EndEffectorAction, EndEffectorFeedback, EndEffectorGoal,
                               EndEffectorResult, MoveBaseAction, MoveBaseFeedback,
@@ -34,7 +33,8 @@ from std_srvs.srv import Trigger, TriggerResponse
 
 from motion_pkg import motion_goals as mg
 from motion_pkg.modbus_driver import ConnectionLost, ControllerRefused, DriverError, ModbusDriver
-from motion_pkg.modbus_map import RegisterMap
+from motion_pkg.modbus_map import RegisterMap, parse_serial_number
+from visualization_pkg import robot_config
 
 POLL_RATE_TOLERANCE = 0.2          # diagnostics: poll rate within +-20 % of ~poll_rate is OK
 POLL_RATE_WINDOW = 10              # diagnostics: averaging window (updates)
@@ -43,6 +43,12 @@ LEVEL_NAMES = {0: 'OK', 1: 'WARN', 2: 'ERROR'}
 
 def _package_file(package, *parts):
     return os.path.join(rospkg.RosPack().get_path(package), *parts)
+
+
+def _internal_error(action, exc):
+    """Outcome of a goal that failed on an unexpected error (logged with its traceback)."""
+    rospy.logerr('%s goal failed on an internal error: %r', action, exc, exc_info=True)
+    return mg.Outcome(False, mg.FAILURE, 'internal error: %s' % exc)
 
 
 class _Active(object):
@@ -63,17 +69,24 @@ class MotionServer(object):
         self.regmap = RegisterMap.from_file(
             rospy.get_param('~register_map', '') or
             _package_file('motion_pkg', 'config', 'register_map.yaml'))
-        with open(rospy.get_param('~robot_config', '') or
-                  _package_file('visualization_pkg', 'config', 'robot.yaml')) as stream:
-            self.limits = mg.limits_from_robot_config(yaml.safe_load(stream))
+        # a bad robot.yaml: one fatal line naming file and field, exit 1 (nothing connects)
+        self.limits = mg.limits_from_robot_config(robot_config.load_or_exit(
+            rospy.get_param('~robot_config', '') or
+            _package_file('visualization_pkg', 'config', 'robot.yaml'), rospy.logfatal))
         missing = [a for a in self.regmap.axis_names if a not in self.limits]
         if missing:
             raise ValueError('axes %s of the register map are not in robot.yaml' % missing)
+        try:          # the one controller this robot drives (identity block, serial number)
+            serial_number = parse_serial_number(rospy.get_param('~controller_serial', 1))
+        except ValueError as exc:
+            rospy.logfatal('~controller_serial: %s', exc)     # one fatal line, exit 1
+            raise SystemExit(1)
         self.driver = ModbusDriver(
             self.regmap, rospy.get_param('~host', '127.0.0.1'), rospy.get_param('~port', 502),
             rospy.get_param('~unit_id', 1), rospy.get_param('~response_timeout', 0.25),
             rospy.get_param('~reconnect_backoff_min', 0.1),
-            rospy.get_param('~reconnect_backoff_max', 2.0))
+            rospy.get_param('~reconnect_backoff_max', 2.0), serial_number)
+        self._refusal_logged = ''
         self.endpoint = '%s:%d' % (self.driver.host, self.driver.port)
         self.poll_rate = float(rospy.get_param('~poll_rate', 60.0))
         self.stale_timeout = float(rospy.get_param('~stale_timeout', 0.5))
@@ -167,7 +180,12 @@ class MotionServer(object):
         now = rospy.get_time()
         if not self.driver.connected:
             if not self.driver.ensure_connected(now):
+                if self.driver.refused and self.driver.refused != self._refusal_logged:
+                    rospy.logerr('%s (~controller_serial %d); retrying with back-off',
+                                 self.driver.refused, self.driver.serial_number)
+                self._refusal_logged = self.driver.refused
                 return []
+            self._refusal_logged = ''
             self._on_connected()
         try:
             state = self.driver.poll()
@@ -283,6 +301,9 @@ class MotionServer(object):
             code = mg.CONNECTION_LOST if isinstance(exc, ConnectionLost) else mg.REFUSED
             self._finish_move_robot(handle, mg.Outcome(False, code, str(exc)), None)
             return
+        except Exception as exc:  # noqa: BLE001 - a goal is always answered
+            self._finish_move_robot(handle, _internal_error('move_robot', exc), None)
+            return
         if previous is not None:
             rospy.logdebug('move_robot goal replaced a running one')
         self._register(entry)
@@ -293,17 +314,18 @@ class MotionServer(object):
             raise ConnectionLost('no connection to the motion controller at %s: %s'
                                  % (self.endpoint, self.driver.last_error or 'not connected'))
         indices = [self.regmap.axis(n).index for n in names]
-        tolerances, durations, units = [], [], []
-        for n, i, target, speed in zip(names, indices, targets, speeds):
-            lim = self.limits[n]
-            tolerances.append(self.tol_linear if lim.linear else self.tol_angular)
-            durations.append(mg.move_duration(target - state.axes[i].position, speed,
-                                              lim.acceleration))
-            units.append(lim.unit)
+        # every value checked and encoded before the first write: a goal moves all its axes or none
+        budget = mg.plan_axes_move(
+            names, targets, speeds, [state.axes[i].position for i in indices], self.limits,
+            self.timeout_factor, self.timeout_margin,
+            lambda n, *command: self.regmap.encode_move(self.regmap.axis(n).index, *command))
+        tolerances = [self.tol_linear if self.limits[n].linear else self.tol_angular
+                      for n in names]
+        units = [self.limits[n].unit for n in names]
         for i, target, speed, n in zip(indices, targets, speeds, names):
             self.driver.move(i, target, speed, self.limits[n].acceleration)
         first_poll = self._snapshot()[0] + 1
-        deadline = rospy.get_time() + max(durations) * self.timeout_factor + self.timeout_margin
+        deadline = rospy.get_time() + budget
         monitor = mg.AxesMoveMonitor(indices, names, targets,
                                      [state.axes[i].position for i in indices], tolerances,
                                      first_poll, deadline, self.regmap.fault_text, units)
@@ -355,6 +377,9 @@ class MotionServer(object):
             self._finish_move_base(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)),
                                    self._state)
             return
+        except Exception as exc:  # noqa: BLE001 - a goal is always answered
+            self._finish_move_base(handle, _internal_error('move_base', exc), self._state)
+            return
         self._register(entry)
 
     def _feedback_move_base(self, handle, monitor, _state):
@@ -387,6 +412,9 @@ class MotionServer(object):
         except (mg.GoalError, DriverError) as exc:
             self._finish_end_effector(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)),
                                       self._state)
+            return
+        except Exception as exc:  # noqa: BLE001 - a goal is always answered
+            self._finish_end_effector(handle, _internal_error('end_effector', exc), self._state)
             return
         handle.publish_feedback(EndEffectorFeedback(state=entry.monitor.state_text))
         self._register(entry)
@@ -471,6 +499,7 @@ class MotionServer(object):
                 return
             self._last_status = (level, message)
             values = [KeyValue('endpoint', self.endpoint),
+                      KeyValue('controller_serial', str(self.driver.serial_number)),
                       KeyValue('connected', str(self.driver.connected)),
                       KeyValue('connections', str(self.driver.connects))]
             self.status_pub.publish(DiagnosticStatus(
@@ -487,6 +516,7 @@ class MotionServer(object):
                      'connected' if self.driver.connected and not self._poll_error else message)
         stat.add('endpoint', self.endpoint)
         stat.add('unit id', self.driver.unit)
+        stat.add('controller serial number', self.driver.serial_number)
         stat.add('connections made', self.driver.connects)
         stat.add('connections lost', self.driver.failures)
         stat.add('last error', self.driver.last_error or self._poll_error or '-')

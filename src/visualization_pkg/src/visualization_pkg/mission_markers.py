@@ -7,7 +7,8 @@ Subscribes (relative names; the actionlib topics are the executive's own goals a
   mission/events                            the executive's current state, as text over the robot
 Publishes: mission/markers (visualization_msgs/MarkerArray, latched; the whole set each time)
 Fruit spheres are kept in ~fixed_frame (map): the records are in base_link, which moves with the cart.
-Params: ~robot_yaml (default visualization_pkg config/robot.yaml), ~base_frame (base_link),
+Params: ~robot_yaml (default visualization_pkg config/robot.yaml; a bad file ends the node at
+  start with one fatal line naming the field, exit code 1), ~base_frame (base_link),
   ~fixed_frame (map), ~tf_timeout (s, 0.2),
   ~history (number of fruit spheres kept, 200), ~text_height (m, 0.06)
 """
@@ -17,13 +18,13 @@ import rospkg
 import rospy
 import tf2_geometry_msgs  # noqa: F401 - registers PointStamped with tf2
 import tf2_ros
-import yaml
 from geometry_msgs.msg import Point
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
 from harvest_msgs.msg import (KinematicsActionGoal, KinematicsActionResult, MissionEvent, MoveRobotActionGoal,
                               MoveRobotActionResult, PickRecord)
+from visualization_pkg import robot_config
 from visualization_pkg.arm_geometry import ArmGeometry
 
 OUTCOME_RGBA = {PickRecord.OUTCOME_PICKED: (0.18, 0.8, 0.25, 0.9), PickRecord.OUTCOME_UNREACHABLE: (1.0, 0.55, 0.0, 0.9),
@@ -39,8 +40,8 @@ class MissionMarkers(object):
     def __init__(self):
         path = rospy.get_param('~robot_yaml', '') or os.path.join(
             rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
-        with open(path) as f:
-            self.arm = ArmGeometry.from_robot_yaml(yaml.safe_load(f))
+        # a bad robot.yaml: one fatal line naming file and field, exit 1
+        self.arm = ArmGeometry.from_robot_yaml(robot_config.load_or_exit(path, rospy.logfatal))
         self.base_frame = rospy.get_param('~base_frame', 'base_link')
         self.fixed_frame = rospy.get_param('~fixed_frame', 'map')
         self.tf_timeout = rospy.Duration(float(rospy.get_param('~tf_timeout', 0.2)))

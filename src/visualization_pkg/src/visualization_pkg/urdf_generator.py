@@ -8,7 +8,7 @@ the model is for rviz and tf, not for dynamics simulation.
 import math
 import xml.etree.ElementTree as ET
 
-import yaml
+from visualization_pkg import robot_config
 
 ARMS = ('left', 'right')
 TOOL_FRAME = {'left': 'left_shear_tcp', 'right': 'right_suction_tcp'}
@@ -77,7 +77,8 @@ def _cyl(radius, length, xyz, material, rpy=(0, 0, 0)):
 
 
 def build_urdf(config):
-    """URDF text (str) for the parsed robot.yaml."""
+    """URDF text (str) for the parsed robot.yaml (RobotConfigError when it is bad)."""
+    robot_config.validate(config)
     robot = config['robot']
     speed = config['motion']['speed']
     lengths = robot['link_lengths']
@@ -171,6 +172,5 @@ def _indent(elem, level=0):
 
 
 def urdf_from_yaml(path):
-    """URDF text generated from a robot.yaml path."""
-    with open(path) as f:
-        return build_urdf(yaml.load(f, Loader=yaml.SafeLoader))
+    """URDF text generated from a robot.yaml path (RobotConfigError when the file is bad)."""
+    return build_urdf(robot_config.load(path))

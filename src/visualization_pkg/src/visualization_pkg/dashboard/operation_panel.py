@@ -13,7 +13,6 @@ import threading
 
 import actionlib
 import rospy
-import yaml
 from python_qt_binding import loadUi
 from python_qt_binding.QtCore import Qt, QTimer, Signal
 from python_qt_binding.QtGui import QFont
@@ -26,6 +25,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from harvest_msgs.msg import (EndEffectorAction, EndEffectorGoal, MoveBaseAction, MoveBaseGoal, MoveRobotAction,
                               MoveRobotGoal)
+from visualization_pkg import robot_config
 from visualization_pkg.dashboard import executive_state as es
 from visualization_pkg.dashboard import manual_ops
 from visualization_pkg.dashboard.qt_common import Panel, package_path, resource_path, ros_now
@@ -126,9 +126,8 @@ class OperationPanel(Panel):
     def _load_limits(path):
         path = path or os.path.join(package_path(), 'config', 'robot.yaml')
         try:
-            with open(path) as f:
-                return manual_ops.limits_from_robot_yaml(yaml.safe_load(f))
-        except (IOError, OSError, KeyError, TypeError, ValueError) as exc:
+            return manual_ops.limits_from_robot_yaml(robot_config.load(path))
+        except (IOError, OSError, KeyError, TypeError, ValueError) as exc:  # RobotConfigError too
             rospy.logwarn('dashboard: no joint limits from %s (%s); jogging is not clamped', path, exc)
             return {}
 

@@ -1,0 +1,46 @@
+"""tools/run_demo.py (`make demo`) when the launch ends early: the reason is reported, not a
+traceback of the clean-up."""
+
+import importlib.util
+import os
+import subprocess
+import sys
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+RUN_DEMO = os.path.join(HERE, '..', '..', '..', 'tools', 'run_demo.py')
+sys.path.insert(0, os.path.join(HERE, '..', '..', 'harvest_sim', 'src'))   # harvest_sim.instance
+
+
+@pytest.fixture(scope='module')
+def run_demo():
+    spec = importlib.util.spec_from_file_location('run_demo', RUN_DEMO)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_stop_launch_after_the_launch_ended(run_demo):
+    """A required node died and roslaunch ended with its whole process group: nothing to stop."""
+    launch = subprocess.Popen([sys.executable, '-c', 'pass'], start_new_session=True)
+    launch.wait()
+    run_demo.stop_launch(launch)                       # raised ProcessLookupError before
+    assert launch.returncode == 0
+
+
+def test_stop_launch_interrupts_a_running_launch(run_demo):
+    launch = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(60)'],
+                              start_new_session=True)
+    run_demo.stop_launch(launch)
+    assert launch.returncode is not None and launch.returncode != 0
+
+
+def test_fatal_lines(run_demo, tmp_path):
+    log = tmp_path / 'demo.log'
+    log.write_text('process[sim/sim_controller-4]: started with pid [1]\n'
+                   '[FATAL] [1.0, 2.0]: cannot listen on 127.0.0.1:5020: the port is taken\n'
+                   'REQUIRED process [sim/sim_controller-4] has died!\n')
+    assert run_demo.fatal_lines(str(log)) == [
+        '[FATAL] [1.0, 2.0]: cannot listen on 127.0.0.1:5020: the port is taken']
+    assert run_demo.fatal_lines(str(tmp_path / 'missing.log')) == []
