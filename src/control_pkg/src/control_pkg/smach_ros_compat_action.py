@@ -14,12 +14,20 @@ SimpleActionState, written anew for this workspace. Differences, all deliberate:
   (with "Got a transition callback on a goal handle that we're not tracking") any transition
   that a fast server sends before that; seen here about once per few hundred goals near
   start-up. A dropped DONE would leave the state waiting forever. Callbacks here are tied to
-  their goal by closure instead.
+  their goal by closure instead;
+- while it waits for its server it hands its node the master's current publishers of the
+  action's topics every `RECONNECT_PERIOD` (ROS time): rospy keeps only the newest of several
+  pending publisher updates of a topic, so when a server registers while the client's own
+  registration is answered, the client may keep the empty list and never connect to it (seen
+  once in some 500 whole-mission runs: `self_test/feedback` never connected, and the mission
+  aborted at DO_START with the server up). Connected publishers are left as they are.
 """
 import copy
 import threading
 import traceback
+from xmlrpc.client import ServerProxy
 
+import rosgraph
 import rospy
 from actionlib.action_client import ActionClient, CommState
 from actionlib_msgs.msg import GoalStatus
@@ -29,9 +37,31 @@ from control_pkg.smach_compat import smach
 __all__ = ['SimpleActionState']
 
 _SIXTY_SECONDS = rospy.Duration(60.0)
+#: while waiting for a server, the node is told the master's publishers this often (ROS time)
+RECONNECT_PERIOD = rospy.Duration(1.0)
+_ACTION_TOPICS = ('status', 'result', 'feedback')
 
 _STATUS_NAMES = dict((value, name) for name, value in vars(GoalStatus).items()
                      if name.isupper() and isinstance(value, int))
+
+
+def resend_publishers(namespace, names):
+    """Tell this node the master's current publishers of `namespace`/name for each name, as
+    the master's publisherUpdate does; rospy connects the ones it is not connected to yet.
+    Errors (a master or node going away) are left to the next attempt."""
+    try:
+        caller_id = rospy.get_caller_id()
+        master = rosgraph.Master(caller_id)
+        publishers, _, _ = master.getSystemState()
+        node = ServerProxy(rospy.get_node_uri())
+        for name in names:
+            topic = rospy.resolve_name('%s/%s' % (namespace, name))
+            nodes = next((n for t, n in publishers if t == topic), [])
+            uris = [master.lookupNode(n) for n in nodes]
+            if uris:
+                node.publisherUpdate('/master', topic, uris)
+    except Exception as exc:  # noqa: BLE001 - socket, XML-RPC and master errors alike
+        rospy.logdebug('resend_publishers(%s): %s', namespace, exc)
 
 
 def _duration(value):
@@ -213,8 +243,18 @@ class SimpleActionState(smach.State):
         timeout = self._server_wait_timeout
         ready = False
         try:
-            # actionlib reads Duration(0) as "forever".
-            ready = self._client.wait_for_server(timeout if timeout else rospy.Duration(0))
+            deadline = None
+            while not ready and not rospy.is_shutdown():
+                now = rospy.get_rostime()
+                if deadline is None and not now.is_zero() and timeout:
+                    deadline = now + timeout        # ROS time runs (sim time may start late)
+                if deadline is not None and now >= deadline:
+                    break
+                step = RECONNECT_PERIOD if deadline is None else min(RECONNECT_PERIOD,
+                                                                     deadline - now)
+                ready = self._client.wait_for_server(step)
+                if not ready and not rospy.is_shutdown():
+                    resend_publishers(self._client.ns, _ACTION_TOPICS)
         except Exception:  # rospy raises here when shutting down
             if not rospy.is_shutdown():
                 rospy.logerr("Waiting for action server '%s' failed: %s"
