@@ -25,6 +25,7 @@ from std_srvs.srv import Trigger, TriggerResponse
 from harvest_msgs.msg import MissionEvent, PickRecord
 from control_pkg.smach_compat import IntrospectionServer
 from control_pkg import executive
+from control_pkg.executive_states import MissionContext
 from control_pkg import mission as mission_lib
 
 _OUTCOME_CODES = {
@@ -118,9 +119,9 @@ class TaskPlanner(object):
 
         self.estop = threading.Event()
         self.resume = threading.Event()
-        self.context = executive.MissionContext(self.config, self.progress, self.recorder,
-                                                publish_event=self.publish_event,
-                                                publish_record=self.publish_record, halt=self.halt_axes)
+        self.context = MissionContext(self.config, self.progress, self.recorder,
+                                      publish_event=self.publish_event,
+                                      publish_record=self.publish_record, halt=self.halt_axes)
         self.sm = executive.build_state_machine(self.context, self.estop, self.resume)
         self._introspection = IntrospectionServer(rospy.get_param('~introspection_name', 'harvest_executive'),
                                                   self.sm, '/SM_ROOT')

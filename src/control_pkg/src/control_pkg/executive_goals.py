@@ -1,0 +1,172 @@
+"""Goals the executive sends and what it reads from results: pure functions of messages.
+
+No rospy here: every function takes and returns messages or plain values, so the executive's
+decisions about goals and results are unit-tested without a master (test/test_executive_goals.py).
+The state machine (executive.py) wires them into its SimpleActionStates.
+"""
+import copy
+import math
+
+from actionlib_msgs.msg import GoalStatus
+from geometry_msgs.msg import PointStamped
+from trajectory_msgs.msg import JointTrajectoryPoint
+
+from harvest_msgs.msg import (KinematicsGoal, MoveRobotGoal, TomatoScanGoal, VisualServoGoal)
+from control_pkg.mission import distance
+
+ARM_RIGHT = False   # MoveRobot/Kinematics `arm`: false = right (suction) arm
+ARM_LEFT = True     # true = left (cutting) arm
+
+
+# --- points and targets ------------------------------------------------------------------------
+def located(tomato, frame):
+    """(x, y, z) of a tomato located in `frame` with a finite point and a radius, else None."""
+    p = tomato.pick_point.point
+    if tomato.pick_point.header.frame_id != frame or not tomato.radius > 0.0 or \
+            not all(math.isfinite(v) for v in (p.x, p.y, p.z)):
+        return None
+    return (p.x, p.y, p.z)
+
+
+def point_goal(point_stamped, dx=0.0, dy=0.0, dz=0.0):
+    """A copy of a PointStamped moved by (dx, dy, dz) in its own frame."""
+    out = PointStamped()
+    out.header = point_stamped.header
+    out.point.x = point_stamped.point.x + dx
+    out.point.y = point_stamped.point.y + dy
+    out.point.z = point_stamped.point.z + dz
+    return out
+
+
+def joint_point(positions):
+    return JointTrajectoryPoint(positions=list(positions))
+
+
+def scene_of(tomatoes, frame):
+    """(id, (x, y, z), radius) of every tomato of a scan located in `frame`."""
+    return [(t.id, located(t, frame), t.radius) for t in tomatoes if located(t, frame) is not None]
+
+
+def pickable_in_order(tomatoes):
+    """The pickable tomatoes of a scan in their picking order."""
+    return sorted([t for t in tomatoes if t.pickable], key=lambda t: t.pick_order)
+
+
+def pulled(target, pull):
+    """The target as it is once the suction arm has drawn it out by `pull` (x, y, z)."""
+    moved = copy.deepcopy(target)
+    moved.pick_point = point_goal(target.pick_point, *pull)
+    return moved
+
+
+# --- goals -------------------------------------------------------------------------------------
+def suction_kinematics_goal(target):
+    """Right arm: the suction sleeve on the fruit surface that faces the arm."""
+    return KinematicsGoal(target=target.pick_point, arm=ARM_RIGHT, standoff=float(target.radius))
+
+
+def cutting_kinematics_goal(target, peduncle_gap, approach):
+    """Left arm: the cutting hand `approach` short of the peduncle, `peduncle_gap` above the
+    fruit's top; the visual servo does the last centimetres."""
+    return KinematicsGoal(target=point_goal(target.pick_point, dz=target.radius + peduncle_gap),
+                          arm=ARM_LEFT, standoff=approach)
+
+
+def pull_kinematics_goal(target, pull):
+    """Right arm: the held fruit drawn out by `pull`."""
+    return KinematicsGoal(target=point_goal(target.pick_point, *pull), arm=ARM_RIGHT,
+                          standoff=float(target.radius))
+
+
+def move_goal(arm, positions):
+    return MoveRobotGoal(target_joint=joint_point(positions), arm=arm)
+
+
+def servo_goal(target):
+    return VisualServoGoal(target=target.pick_point, target_radius=float(target.radius))
+
+
+def scan_goal(picking_point, frame):
+    return TomatoScanGoal(picking_point=int(picking_point), target_frame=frame)
+
+
+def held_scan_goal(frame):
+    """A scan of the fruit held up by the suction arm (no picking point)."""
+    return TomatoScanGoal(picking_point=-1, target_frame=frame)
+
+
+# --- results -----------------------------------------------------------------------------------
+def succeeded(status):
+    return status == GoalStatus.SUCCEEDED
+
+
+def self_test_failure(result):
+    """Why the self-test failed (text), or None when it passed or gave no result."""
+    if result is None or result.success:
+        return None
+    reasons = ['%s: %s' % (c, r) for c, r in zip(result.failed, result.reasons)]
+    return '; '.join(reasons) or result.message
+
+
+def kinematics_solution(result):
+    """(joint positions, None) when the target is reachable, (None, reason) when not,
+    (None, None) without a result."""
+    if result is None:
+        return None, None
+    if not result.reachable:
+        return None, result.reason
+    return list(result.joint_goal.positions), None
+
+
+def move_failure(status, result):
+    """Why a MoveRobot goal that the server reported done did not reach its joints, or None."""
+    if result is not None and result.succeed != 1 and succeeded(status):
+        return 'move finished with code %d' % result.succeed
+    return None
+
+
+def report_failure(status, result):
+    """Why an EndEffector or VisualServo goal reported done did not succeed (its message),
+    or None."""
+    if result is not None and not result.success and succeeded(status):
+        return result.message
+    return None
+
+
+class Relocation(object):
+    """What the look at the held fruit decided: `target` is the new estimate or None (keep the
+    first one), `why` one of: no-result, no-estimate, not-found, smaller, moved."""
+
+    def __init__(self, why, target=None, distance=None, radius=None):
+        self.why = why
+        self.target = target
+        self.distance = distance
+        self.radius = radius
+
+
+def relocate(target, tomatoes, tolerance):
+    """The held fruit among the tomatoes of a scan: the nearest one within `tolerance` of where
+    it is expected replaces the first estimate unless it is smaller (occlusion only shrinks a
+    fitted circle, so the first view then saw more of it)."""
+    if tomatoes is None:
+        return Relocation('no-result')
+    frame = target.pick_point.header.frame_id
+    expected = located(target, frame)
+    if expected is None:
+        return Relocation('no-estimate')
+    best, best_d = None, tolerance
+    for cand in tomatoes:
+        xyz = located(cand, frame)
+        if xyz is None:
+            continue
+        d = distance(xyz, expected)
+        if d <= best_d:
+            best, best_d = cand, d
+    if best is None:
+        return Relocation('not-found')
+    if best.radius < target.radius:
+        return Relocation('smaller', distance=best_d, radius=best.radius)
+    moved = copy.deepcopy(target)
+    moved.pick_point = best.pick_point
+    moved.radius = best.radius
+    return Relocation('moved', moved, best_d, best.radius)

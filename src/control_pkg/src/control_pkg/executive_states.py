@@ -1,0 +1,298 @@
+"""The executive's own SMACH states and the one object they share (see executive.py).
+
+- MissionContext: the mission's explicit shared state besides userdata: configuration,
+  progress over the picking points, the mission record, the last scan's scene, the fault text
+  and the hooks that publish events and records and halt the axes;
+- HarvestActionState: a SimpleActionState with retries, timing into the mission record and a
+  failure reason;
+- NextPoint, NextTarget, ChoosePull, EndFruit: the plan's steps;
+- DoError, EstopMonitor, DoStop: fault, emergency stop and resume.
+
+A state's outcomes and keys are documented in its docstring as
+``Outcomes: ...`` / ``Input keys: ...`` / ``Output keys: ...``.
+"""
+import threading
+
+import rospy
+
+from control_pkg.smach_compat import smach, SimpleActionState
+from control_pkg import mission as mission_lib
+
+
+class MissionContext(object):
+    """What the states share besides userdata: configuration, progress, record and logging hooks."""
+
+    def __init__(self, config, progress, recorder, publish_event=None, publish_record=None, halt=None):
+        self.config = config
+        self.progress = progress
+        self.recorder = recorder
+        self.publish_event = publish_event or (lambda kind, state, detail: None)
+        self.publish_record = publish_record or (lambda record: None)
+        self.halt = halt or (lambda: (True, 'no halt service configured'))
+        self.last_error = ''
+        self.lock = threading.Lock()
+        self.scene = []            # (id, (x, y, z), radius) of every located tomato at this point
+        self.gone = set()          # ids picked since that scan
+
+    def now(self):
+        return rospy.get_time()
+
+    def fail(self, reason):
+        with self.lock:
+            self.last_error = reason
+        self.recorder.note_error(reason)
+
+
+def _status_text(state):
+    """The text the action server gave with its last goal status, when the client exposes it."""
+    text = getattr(state, 'goal_status_text', None)   # control_pkg's fallback SimpleActionState
+    if text:
+        return text
+    client = getattr(state, '_action_client', None)     # smach_ros
+    if client is None:
+        return ''
+    try:
+        return client.get_goal_status_text() or ''
+    except Exception:  # noqa: BLE001 - a missing goal handle just means no text
+        return ''
+
+
+class HarvestActionState(SimpleActionState):
+    """A SimpleActionState with retries, timing into the mission record and a failure reason.
+
+    Outcomes: succeeded, aborted, preempted, plus the extra ones given.
+    Retries re-send the goal after an `aborted` outcome (not after a preemption or another outcome).
+    """
+
+    def __init__(self, context, label, action_name, action_spec, retries=0, exec_timeout=30.0,
+                 server_wait_timeout=5.0, **kwargs):
+        SimpleActionState.__init__(
+            self, action_name, action_spec,
+            exec_timeout=rospy.Duration(exec_timeout),
+            server_wait_timeout=rospy.Duration(server_wait_timeout),
+            preempt_timeout=rospy.Duration(5.0), **kwargs)
+        self._context = context
+        self._label = label
+        self._retries = max(0, int(retries))
+        self._action_name = action_name
+
+    def execute(self, ud):
+        start = self._context.now()
+        errors_before = len(self._context.recorder.errors)
+        outcome = 'aborted'
+        for attempt in range(self._retries + 1):
+            outcome = SimpleActionState.execute(self, ud)
+            if outcome != 'aborted' or self.preempt_requested() or rospy.is_shutdown():
+                break
+            if attempt < self._retries:
+                rospy.logwarn('%s: %s aborted (%s), retry %d of %d', self._label, self._action_name,
+                              _status_text(self) or 'no reason given', attempt + 1, self._retries)
+        if outcome == 'aborted' and len(self._context.recorder.errors) == errors_before:
+            reason = _status_text(self) or ('%s did not succeed (server missing, timed out or aborted)'
+                                            % self._action_name)
+            self._context.fail('%s: %s' % (self._label, reason))
+        self._context.recorder.add_state(self._label, max(0.0, self._context.now() - start))
+        return outcome
+
+
+class NextPoint(smach.State):
+    """Choose the next picking point of the plan.
+
+    Outcomes: point (one more point to visit), done (the last point has been harvested),
+      error (no usable plan of picking points)
+    Output keys: picking_point
+    """
+
+    def __init__(self, context):
+        smach.State.__init__(self, outcomes=['point', 'done', 'error'], output_keys=['picking_point'])
+        self._context = context
+
+    def execute(self, ud):
+        try:
+            point = self._context.progress.advance()
+        except ValueError as exc:
+            self._context.fail('NEXT_POINT: %s' % exc)
+            return 'error'
+        if point is None:
+            return 'done'
+        ud.picking_point = point
+        self._context.recorder.visit_point()
+        self._context.publish_event('state', 'NEXT_POINT', 'picking point %d' % point)
+        rospy.loginfo('executive: picking point %d', point)
+        return 'point'
+
+
+class NextTarget(smach.State):
+    """Take the next target of the planned picking order.
+
+    Outcomes: target (a tomato to pick), done (no target left at this point).
+    Input keys: targets, picking_point
+    Output keys: targets, target
+    """
+
+    def __init__(self, context):
+        smach.State.__init__(self, outcomes=['target', 'done'], input_keys=['targets', 'picking_point'],
+                             output_keys=['targets', 'target'])
+        self._context = context
+
+    def execute(self, ud):
+        targets = list(ud.targets or [])
+        if not targets:
+            return 'done'
+        target = targets.pop(0)
+        ud.targets = targets
+        ud.target = target
+        p = target.pick_point.point
+        self._context.recorder.begin_fruit(ud.picking_point, target.id, (p.x, p.y, p.z), self._context.now())
+        rospy.loginfo('executive: target %d (order %d) at (%.3f, %.3f, %.3f) in %s', target.id,
+                      target.pick_order, p.x, p.y, p.z, target.pick_point.header.frame_id)
+        return 'target'
+
+
+class ChoosePull(smach.State):
+    """Choose how to draw the held fruit out of its cluster: the first of the configured pulls
+    that keeps it (and the cut point above it) clear of the other tomatoes of the last scan.
+
+    Outcomes: pull, none (no pull is clear: the fruit is cut where it hangs)
+    Input keys: target
+    Output keys: pull
+    """
+
+    def __init__(self, context, candidates, clearance, cut_height, cut_clearance):
+        smach.State.__init__(self, outcomes=['pull', 'none'], input_keys=['target'], output_keys=['pull'])
+        self._context = context
+        self._candidates = candidates
+        self._clearance = clearance
+        self._cut_height = cut_height
+        self._cut_clearance = cut_clearance
+
+    def execute(self, ud):
+        t = ud.target
+        p = t.pick_point.point
+        obstacles = [(xyz, r) for tid, xyz, r in self._context.scene
+                     if tid != t.id and tid not in self._context.gone]
+        pull = mission_lib.choose_pull((p.x, p.y, p.z), t.radius, obstacles, self._candidates,
+                                       self._clearance, self._cut_height, self._cut_clearance)
+        near = ', '.join('(%.3f, %.3f, %.3f) r %.3f' % (xyz[0], xyz[1], xyz[2], r) for xyz, r in obstacles
+                         if mission_lib.distance(xyz, (p.x, p.y, p.z)) < 0.15)
+        if pull is None:
+            rospy.loginfo('executive: no clear way to draw target %d out of its cluster (fruit near it: %s); '
+                          'cutting it in place', t.id, near or 'none')
+            return 'none'
+        rospy.loginfo('executive: drawing target %d out by (%.3f, %.3f, %.3f) m (fruit near it: %s)',
+                      t.id, pull[0], pull[1], pull[2], near or 'none')
+        ud.pull = pull
+        return 'pull'
+
+
+class EndFruit(smach.State):
+    """Close the current fruit's record with a fixed outcome.
+
+    Outcomes: done
+    """
+
+    def __init__(self, context, outcome):
+        smach.State.__init__(self, outcomes=['done'])
+        self._context = context
+        self._outcome = outcome
+
+    def execute(self, ud):
+        reason = '' if self._outcome == mission_lib.OUTCOME_PICKED else self._context.last_error
+        record = self._context.recorder.end_fruit(self._outcome, self._context.now(), reason)
+        if record is not None and self._outcome == mission_lib.OUTCOME_PICKED:
+            self._context.gone.add(record.target_id)
+        if record is not None:
+            self._context.publish_record(record)
+            rospy.loginfo('executive: target %d %s after %.1f s%s', record.target_id, record.outcome,
+                          record.cycle_time, (' (%s)' % reason) if reason else '')
+        return 'done'
+
+
+class DoError(smach.State):
+    """DO_ERROR: bring the robot to a safe state (halt every axis) and record why.
+
+    Outcomes: aborted
+    """
+
+    def __init__(self, context):
+        smach.State.__init__(self, outcomes=['aborted'])
+        self._context = context
+
+    def execute(self, ud):
+        reason = self._context.last_error or 'unknown fault'
+        ok, message = self._context.halt()
+        rospy.logerr('executive: DO_ERROR: %s; axes halted: %s (%s)', reason, ok, message)
+        if self._context.recorder.current is not None:
+            record = self._context.recorder.end_fruit(mission_lib.OUTCOME_FAILED, self._context.now(), reason)
+            self._context.publish_record(record)
+        self._context.publish_event('fault', 'DO_ERROR', reason)
+        return 'aborted'
+
+
+class EstopMonitor(smach.State):
+    """Waits for an emergency stop request; ends the mission's Concurrence when one comes.
+
+    Outcomes: estop (a stop was requested), preempted (the mission ended first)
+    """
+
+    def __init__(self, estop_event):
+        smach.State.__init__(self, outcomes=['estop', 'preempted'])
+        self._estop = estop_event
+        self._wake = threading.Event()
+        rospy.on_shutdown(self._wake.set)
+
+    def execute(self, ud):
+        # no polling: whoever sets the stop event calls wake() after it; a preempt and rospy's
+        # shutdown wake it too
+        self._wake.clear()
+        while not rospy.is_shutdown():
+            if self._estop.is_set():
+                return 'estop'
+            if self.preempt_requested():
+                self.service_preempt()
+                return 'preempted'
+            self._wake.wait()
+            self._wake.clear()
+        return 'preempted'
+
+    def request_preempt(self):
+        smach.State.request_preempt(self)
+        self._wake.set()
+
+    def wake(self):
+        self._wake.set()
+
+
+class DoStop(smach.State):
+    """DO_STOP: emergency stop. Halts every axis and pauses the mission until a resume command.
+
+    Outcomes: resume (continue from the interrupted picking point and target), shutdown (the
+      node shuts down: its shutdown hook preempts the machine and sets the resume event only to
+      wake this state, which then does not resume)
+    """
+
+    def __init__(self, context, estop_event, resume_event):
+        smach.State.__init__(self, outcomes=['resume', 'shutdown'])
+        self._context = context
+        self._estop = estop_event
+        self._resume = resume_event
+
+    def execute(self, ud):
+        ok, message = self._context.halt()
+        rospy.logwarn('executive: DO_STOP: emergency stop, axes halted: %s (%s); paused until resume', ok, message)
+        self._context.publish_event('estop', 'DO_STOP', 'axes halted: %s' % message)
+        if self._context.recorder.current is not None:
+            record = self._context.recorder.end_fruit(mission_lib.OUTCOME_FAILED, self._context.now(),
+                                                      'interrupted by emergency stop')
+            self._context.publish_record(record)
+        self._context.progress.mark_interrupted()
+        self._resume.wait()
+        if rospy.is_shutdown() or self.preempt_requested():
+            if self.preempt_requested():
+                self.service_preempt()
+            return 'shutdown'
+        self._resume.clear()
+        self._estop.clear()
+        self._context.publish_event('resume', 'DO_STOP', 'mission resumed')
+        rospy.loginfo('executive: resumed')
+        return 'resume'

@@ -1,0 +1,96 @@
+"""The executive's goals and its reading of results (control_pkg.executive_goals), no master."""
+import math
+
+import pytest
+from actionlib_msgs.msg import GoalStatus
+
+from harvest_msgs.msg import (KinematicsResult, MoveRobotResult, EndEffectorResult, StartResult,
+                              Tomato)
+from control_pkg import executive_goals as goals
+
+
+def tomato(tid, xyz, radius, frame='base_link', pickable=True, order=0):
+    t = Tomato()
+    t.id = tid
+    t.pick_point.header.frame_id = frame
+    t.pick_point.point.x, t.pick_point.point.y, t.pick_point.point.z = xyz
+    t.radius = radius
+    t.pickable = pickable
+    t.pick_order = order
+    return t
+
+
+def xyz(point_stamped):
+    p = point_stamped.point
+    return (p.x, p.y, p.z)
+
+
+def test_located_needs_the_frame_a_radius_and_a_finite_point():
+    assert goals.located(tomato(1, (0.5, 0.1, 1.0), 0.03), 'base_link') == (0.5, 0.1, 1.0)
+    assert goals.located(tomato(1, (0.5, 0.1, 1.0), 0.03), 'map') is None
+    assert goals.located(tomato(1, (0.5, 0.1, 1.0), 0.0), 'base_link') is None
+    assert goals.located(tomato(1, (math.nan, 0.1, 1.0), 0.03), 'base_link') is None
+
+
+def test_arm_goals():
+    t = tomato(3, (0.5, 0.1, 1.0), 0.03)
+    suction = goals.suction_kinematics_goal(t)
+    assert suction.arm == goals.ARM_RIGHT and suction.standoff == pytest.approx(0.03)
+    assert xyz(suction.target) == (0.5, 0.1, 1.0)
+    cut = goals.cutting_kinematics_goal(t, peduncle_gap=0.01, approach=0.03)
+    assert cut.arm == goals.ARM_LEFT and cut.standoff == pytest.approx(0.03)
+    assert xyz(cut.target) == pytest.approx((0.5, 0.1, 1.04))      # fruit top + gap
+    pull = goals.pull_kinematics_goal(t, (-0.08, 0.0, 0.0))
+    assert pull.arm == goals.ARM_RIGHT and xyz(pull.target) == pytest.approx((0.42, 0.1, 1.0))
+    assert xyz(t.pick_point) == (0.5, 0.1, 1.0), 'the target itself is not moved'
+    assert xyz(goals.pulled(t, (-0.08, 0.0, 0.0)).pick_point) == pytest.approx((0.42, 0.1, 1.0))
+    move = goals.move_goal(goals.ARM_LEFT, (0.1, 0.2, 0.3))
+    assert move.arm == goals.ARM_LEFT and list(move.target_joint.positions) == [0.1, 0.2, 0.3]
+    assert goals.scan_goal(2, 'base_link').picking_point == 2
+    assert goals.held_scan_goal('base_link').picking_point == -1
+
+
+def test_scan_gives_the_pickable_in_order_and_the_located_scene():
+    scan = [tomato(1, (0.5, 0.0, 1.0), 0.03, order=1), tomato(2, (0.6, 0.0, 1.0), 0.03, order=0),
+            tomato(3, (0.7, 0.0, 1.0), 0.03, pickable=False),
+            tomato(4, (math.nan, 0.0, 1.0), 0.03, pickable=False)]
+    assert [t.id for t in goals.pickable_in_order(scan)] == [2, 1]
+    assert [s[0] for s in goals.scene_of(scan, 'base_link')] == [1, 2, 3]
+
+
+def test_results_read_the_way_the_servers_answer():
+    ok = GoalStatus.SUCCEEDED
+    assert goals.kinematics_solution(None) == (None, None)
+    reach = KinematicsResult(reachable=True)
+    reach.joint_goal.positions = [0.1, 0.2, 0.3]
+    assert goals.kinematics_solution(reach) == ([0.1, 0.2, 0.3], None)
+    assert goals.kinematics_solution(KinematicsResult(reachable=False, reason='beyond reach')) == \
+        (None, 'beyond reach')
+    assert goals.move_failure(ok, MoveRobotResult(succeed=1)) is None
+    assert goals.move_failure(ok, MoveRobotResult(succeed=-2)) == 'move finished with code -2'
+    assert goals.move_failure(GoalStatus.ABORTED, MoveRobotResult(succeed=-2)) is None, \
+        'an aborted goal is the state machine\'s aborted outcome already'
+    assert goals.report_failure(ok, EndEffectorResult(success=False, message='no vacuum')) == \
+        'no vacuum'
+    assert goals.report_failure(ok, EndEffectorResult(success=True)) is None
+    assert goals.self_test_failure(StartResult(success=True)) is None
+    failed = StartResult(success=False, failed=['motion'], reasons=['no controller'], message='x')
+    assert goals.self_test_failure(failed) == 'motion: no controller'
+    assert goals.self_test_failure(StartResult(success=False, message='timed out')) == 'timed out'
+
+
+def test_held_fruit_relocated_only_to_a_near_fruit_not_smaller():
+    held = tomato(5, (0.42, 0.1, 1.0), 0.030)
+    near_bigger = tomato(9, (0.43, 0.1, 1.0), 0.032)
+    near_smaller = tomato(8, (0.425, 0.1, 1.0), 0.025)
+    far = tomato(7, (0.50, 0.1, 1.0), 0.035)
+    moved = goals.relocate(held, [far, near_bigger], 0.03)
+    assert moved.why == 'moved' and moved.distance == pytest.approx(0.01)
+    assert xyz(moved.target.pick_point) == (0.43, 0.1, 1.0) and moved.target.id == 5
+    assert moved.target.radius == pytest.approx(0.032)
+    assert goals.relocate(held, [near_smaller, near_bigger], 0.03).why == 'smaller', \
+        'the nearest one decides'
+    assert goals.relocate(held, [far], 0.03).why == 'not-found'
+    assert goals.relocate(held, None, 0.03).why == 'no-result'
+    assert goals.relocate(tomato(5, (math.nan, 0, 1), 0.03), [near_bigger], 0.03).why == \
+        'no-estimate'
