@@ -19,6 +19,7 @@ import threading
 import time
 
 import rospy
+import yaml
 from std_msgs.msg import Bool, Int32MultiArray, String
 from std_srvs.srv import Trigger, TriggerResponse
 
@@ -35,36 +36,32 @@ _OUTCOME_CODES = {
     mission_lib.OUTCOME_FAILED: PickRecord.OUTCOME_FAILED,
 }
 
-DEFAULTS = {
-    'base_frame': 'base_link',
-    'server_wait_timeout': 10.0,
-    'peduncle_gap': 0.01,
-    'left_approach_standoff': 0.03,
-    'right_pulls': [[-0.08, 0.0, 0.0], [-0.05, 0.0, 0.0], [-0.06, 0.0, -0.05], [-0.06, 0.05, 0.0],
-                    [-0.06, -0.05, 0.0]],
-    'pull_clearance': 0.0,
-    'cut_clearance': 0.01,
-    'relocate_tolerance': 0.03,
-    'actions': {
-        'self_test': 'self_test', 'move_base': 'move_base', 'tomato_scan': 'tomato_scan',
-        'spatial_temporal': 'spatial_temporal', 'kinematics': 'kinematics', 'move_robot': 'move_robot',
-        'end_effector': 'end_effector', 'visual_servo': 'visual_servo',
-    },
-    'timeouts': {
-        'self_test': 300.0, 'move_base': 180.0, 'tomato_scan': 30.0, 'spatial_temporal': 30.0,
-        'kinematics': 5.0, 'move_robot': 60.0, 'end_effector': 10.0, 'visual_servo': 90.0,
-    },
-    'retries': {'move_base': 1, 'tomato_scan': 1, 'spatial_temporal': 1, 'move_robot': 1, 'end_effector': 1},
-    'home': {'left': [0.0, 0.7854, 2.3562], 'right': [0.0, -0.7854, -2.3562]},
-    'collection_box_right': [0.05, -2.159, 1.962],
-    'self_test_components': [],
-}
+def defaults_path():
+    """config/executive.yaml of the control_pkg package: the executive's defaults live only there."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    source = os.path.join(here, '..', '..', 'config', 'executive.yaml')     # devel space / source
+    if os.path.exists(source):
+        return os.path.normpath(source)
+    import rospkg                                                          # install space
+    return os.path.join(rospkg.RosPack().get_path('control_pkg'), 'config', 'executive.yaml')
 
 
-def merged_config(overrides):
-    """DEFAULTS updated one level deep with `overrides` (a dict from the parameter server)."""
+def load_defaults(path=None):
+    """The executive's defaults (a dict) from config/executive.yaml, or from `path`."""
+    path = path or defaults_path()
+    with open(path) as f:
+        data = yaml.safe_load(f)
+    if not isinstance(data, dict):
+        raise ValueError('%s: the executive defaults must be a mapping' % path)
+    return data
+
+
+def merged_config(overrides, defaults=None):
+    """The defaults (config/executive.yaml unless given) updated one level deep with
+    `overrides` (a dict from the parameter server)."""
+    defaults = load_defaults() if defaults is None else defaults
     cfg = {}
-    for key, value in DEFAULTS.items():
+    for key, value in defaults.items():
         if isinstance(value, dict):
             merged = dict(value)
             merged.update((overrides or {}).get(key, {}) or {})
@@ -95,9 +92,10 @@ class TaskPlanner(object):
     """Builds the state machine, wires emergency stop/resume and records, and runs the mission."""
 
     def __init__(self):
-        overrides = {k: rospy.get_param('~' + k) for k in DEFAULTS if rospy.has_param('~' + k)}
+        defaults = load_defaults()
+        overrides = {k: rospy.get_param('~' + k) for k in defaults if rospy.has_param('~' + k)}
         try:
-            self.config = merged_config(overrides)
+            self.config = merged_config(overrides, defaults)
         except ValueError as exc:
             rospy.logfatal('task_planner: bad configuration: %s', exc)
             raise
