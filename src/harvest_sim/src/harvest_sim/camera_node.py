@@ -33,6 +33,11 @@ has delivered what is due: a free-running camera with subscribers at its next fr
 triggered camera from the trigger until its frame is out. Rendering therefore takes no simulated
 time and the frames keep their simulated rate on a loaded machine.
 
+Silence (the camera_silence fault of sim_world, on sim/camera_silence, harvest_sim/CameraSilence
+naming the camera's ~kind or "all"): until its end (ROS time) the camera publishes nothing,
+drops its triggers and holds no clock: a pending hold is released at once, so the clock runs on
+and the silence ends (harvest_sim.frame_timing.CameraSilence).
+
 Parameters: ~scenario (required, name or path), ~kind (stereo|hand), ~rate (Hz of ROS time:
 stereo 2, hand 5), ~width, ~height, ~hfov_deg (defaults 1024x768/66 deg and 640x480/60 deg),
 ~noise_sigma (2.0 DN), ~seed (default: the scenario's), ~robot_config, ~always_publish (false),
@@ -50,7 +55,8 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Empty
 
 from harvest_sim import camera_model, names, render
-from harvest_sim.frame_timing import frame_stamp
+from harvest_sim.frame_timing import CameraSilence, frame_stamp
+from harvest_sim.msg import CameraSilence as CameraSilenceMsg
 from harvest_sim.msg import ClockHold, SimFruitArray
 from harvest_sim.world_node import load_robot_config, load_scenario_param
 from motion_pkg.kinematics import RobotGeometry
@@ -172,6 +178,9 @@ class SimCameraNode(object):
         self._generation = 0          # counts trigger rounds (a stale fallback timer is ignored)
         rospy.Subscriber(names.JOINT_STATES, JointState, self._on_joints, queue_size=1)
         rospy.Subscriber(names.FRUITS, SimFruitArray, self._on_fruits, queue_size=1)
+        self.silence = CameraSilence(self.kind)
+        rospy.Subscriber(names.CAMERA_SILENCE_ROOT, CameraSilenceMsg, self._on_silence,
+                         queue_size=5)
         rate = float(rospy.get_param('~rate', d['rate']))
         if self.triggered:
             rospy.Subscriber(names.STEREO_TRIGGER if self.kind == 'stereo' else
@@ -215,9 +224,27 @@ class SimCameraNode(object):
         with self._lock:
             self._fruits = fruits
 
+    def _on_silence(self, msg):
+        until = None if msg.until.is_zero() else msg.until
+        with self._render_lock:
+            if not self.silence.set(msg.camera, until):
+                return
+            if self.silence.silent(rospy.Time.now()):
+                rospy.logwarn('sim_camera: %s camera silent until %.3f (camera_silence fault)',
+                              self.kind, until.to_sec())
+                with self._lock:
+                    self._trigger = None          # the pending frame never comes
+                self.holder.hold(None)            # and the clock must not wait for it
+            else:
+                rospy.logwarn('sim_camera: %s camera publishes again', self.kind)
+
     # -- triggered ------------------------------------------------------------------------
     def _on_trigger(self, _msg):
         now = rospy.Time.now()
+        if self.silence.silent(now):
+            rospy.logwarn_throttle(5.0, 'sim_camera: %s camera silent (camera_silence fault): '
+                                   'trigger dropped' % self.kind)
+            return
         with self._render_lock:
             with self._lock:
                 first = self._trigger is None
@@ -255,6 +282,11 @@ class SimCameraNode(object):
                 trigger, stamp = self._trigger, self._joints_stamp
             if trigger is None or stamp is None or stamp < trigger:
                 return
+            if self.silence.silent(rospy.Time.now()):
+                with self._lock:
+                    self._trigger = None
+                self.holder.hold(None)
+                return
             self.holder.hold(rospy.Time.now())          # stop the clock while rendering
             try:
                 if self._wanted():
@@ -270,11 +302,14 @@ class SimCameraNode(object):
             if not self._wanted():
                 self.holder.hold(None)
                 return
+            now = rospy.Time.now()
             try:
-                self._frame()
+                if not self.silence.silent(now):
+                    self._frame()
             finally:
-                # hold the clock at the next frame's time until that frame is out
-                self.holder.hold(event.current_expected + self._period)
+                # hold the clock at the next frame's time until that frame is out (not while
+                # silent: nothing would come)
+                self.holder.hold(self.silence.hold(now, event.current_expected + self._period))
 
     # -- one frame ------------------------------------------------------------------------
     def _frame(self):

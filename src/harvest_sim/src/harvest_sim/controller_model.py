@@ -405,6 +405,22 @@ class ControllerModel(object):
                     out.append(self._holding(addr, t))
             return out
 
+    def halts_in(self, address, values):
+        """What a write of `values` to holding registers from `address` halts: ['all'] for the
+        system control register's halt-all bit, else the names of the axes whose control word
+        carries the halt bit; [] when it halts nothing (the halt event of ``sim_controller``)."""
+        halted = []
+        n_axes = len(self.axes)
+        for i, value in enumerate(values):
+            addr = address + i
+            if addr == cm.REG_SYSTEM_CONTROL and int(value) & (1 << cm.SYS_HALT_ALL):
+                return ['all']
+            if cm.COMMAND_BASE <= addr < cm.COMMAND_BASE + cm.COMMAND_STRIDE * n_axes:
+                axis, offset = divmod(addr - cm.COMMAND_BASE, cm.COMMAND_STRIDE)
+                if offset == cm.CMD_CONTROL_WORD and int(value) & (1 << cm.CW_HALT):
+                    halted.append(self.names[axis])
+        return halted
+
     def write_holding(self, address, values, t):
         with self._lock:
             t = self._now(t)

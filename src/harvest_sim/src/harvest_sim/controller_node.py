@@ -12,11 +12,16 @@ Publications (relative; the node runs in namespace ``sim``):
   activity (harvest_sim/SimActivity)     for sim_clock: ACTION on every Modbus write, BUSY with
                                          the time until which something is under way (axes,
                                          vacuum build-up, shear) whenever that changes
+  ~halt_received (sensor_msgs/TimeReference) one per Modbus write that halts axes: header.stamp
+                                         = ROS time of the write, time_ref = its wall time
+                                         (time.time()), source = "all" or the halted axes
 Subscriptions:
   suction_sealed (std_msgs/Bool)         true while the suction cup sits on a fruit
 Services:
   ~inject_fault (std_srvs/Trigger)       apply the fault string in param ``~fault``
   ~set_server_enabled (std_srvs/SetBool) open/close the Modbus TCP listener
+  ~drop_connections (harvest_sim/FaultWindow) close every client connection and refuse new
+                                         ones for `duration` s of ROS time, then listen again
 Parameters:
   ~host (127.0.0.1, loopback only), ~port (5020), ~unit_id (1),
   ~serial_number (1; the identity block's serial number, registers 7-8: the robot's driver
@@ -34,7 +39,7 @@ import threading
 import rospkg
 import rospy
 import yaml
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import JointState, TimeReference
 from std_msgs.msg import Bool, Header
 from std_srvs.srv import SetBool, SetBoolResponse, Trigger, TriggerResponse
 
@@ -43,6 +48,7 @@ from harvest_sim import names
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config
 from harvest_sim.controller_server import ControllerServer, apply_faults, parse_fault_spec
 from harvest_sim.msg import SimActivity
+from harvest_sim.srv import FaultWindow, FaultWindowResponse
 
 
 def default_robot_config():
@@ -82,10 +88,12 @@ class SimControllerNode(object):
                                            rospy.get_param('~host', '127.0.0.1'),
                                            rospy.get_param('~port', 5020),
                                            rospy.get_param('~unit_id', 1),
-                                           on_write=self._on_write)
+                                           on_write=self._on_write, on_halt=self._on_halt)
         except ValueError as exc:                  # not a loopback address
             raise StartupError(str(exc))
         self.joint_pub = rospy.Publisher('joint_states', JointState, queue_size=10)
+        self.halt_pub = rospy.Publisher('~halt_received', TimeReference, queue_size=20,
+                                        tcp_nodelay=True)
         self.valve_pub = rospy.Publisher('suction_valve', Bool, queue_size=10, latch=True)
         self.cut_pub = rospy.Publisher('shear_cut', Header, queue_size=10)
         self.valve_pub.publish(Bool(data=False))
@@ -102,6 +110,7 @@ class SimControllerNode(object):
             rospy.logwarn('start-up fault: %s', self._apply(startup_fault))
         rospy.Service('~inject_fault', Trigger, self._on_inject)
         rospy.Service('~set_server_enabled', SetBool, self._on_server_enabled)
+        rospy.Service('~drop_connections', FaultWindow, self._on_drop_connections)
         rate = float(rospy.get_param('~publish_rate', 60.0))
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._on_timer)
         rospy.on_shutdown(self.shutdown)
@@ -152,6 +161,42 @@ class SimControllerNode(object):
         rospy.logwarn('Modbus server %s', state if ok else 'failed to listen')
         return SetBoolResponse(success=ok, message=state if ok else 'cannot listen')
 
+    def _on_halt(self, t, wall, halted):
+        """A Modbus write halted axes (server thread): when, in ROS and wall time."""
+        msg = TimeReference(time_ref=rospy.Time.from_sec(wall), source=' '.join(halted))
+        msg.header.stamp = rospy.Time.from_sec(t)
+        try:
+            self.halt_pub.publish(msg)
+        except rospy.ROSException:        # shutting down
+            pass
+
+    def _on_drop_connections(self, req):
+        now = rospy.get_time()
+        try:
+            with self._lock:
+                closed = self.server.drop_connections_for(req.duration, now)
+        except (ValueError, OSError) as exc:
+            return FaultWindowResponse(success=False, message='not applied: %s' % exc)
+        if req.duration == 0.0:
+            text = 'listening again'
+        else:
+            text = ('closed %d connection(s); refusing connections for %.3f s, until %.3f'
+                    % (closed, req.duration, now + req.duration))
+        rospy.logwarn('drop_connections: %s', text)
+        return FaultWindowResponse(success=True, message=text)
+
+    def _end_outage(self, t):
+        with self._lock:
+            until = self.server.outage_until
+            if until is None or t < until:
+                return
+            reopened = self.server.end_outage(t)
+        if reopened:
+            rospy.logwarn('drop_connections: window over, listening again')
+        else:
+            rospy.logerr_throttle(5.0, 'drop_connections: cannot listen again on %s:%d'
+                                  % (self.server.host, self.server.port))
+
     def _on_sealed(self, msg):
         t = rospy.get_time()
         self.model.set_sealed(msg.data, t)
@@ -160,6 +205,7 @@ class SimControllerNode(object):
     def _on_timer(self, _event):
         now = rospy.get_rostime()
         t = now.to_sec()
+        self._end_outage(t)
         for event in self.model.pop_events(t):
             if event[0] == 'valve':
                 self.valve_pub.publish(Bool(data=event[2]))

@@ -7,6 +7,9 @@ real controller or network does (each is observable by any Modbus client):
 - ``set_listening(False)``: close the listener and every connection (clients see refused
   connections) until ``set_listening(True)``;
 - ``drop_connections()``: close the open connections once, keep listening;
+- ``drop_connections_for(duration, now)``: close every connection and refuse new ones until
+  controller time ``now + duration``; ``end_outage(now)``, called on every tick, listens again
+  once that time has come (the ``~drop_connections`` service of ``sim_controller``);
 - ``set_delay(seconds)``: answer every register/coil request late;
 - ``set_exception(code)``: answer every register/coil request with Modbus exception ``code``
   (e.g. 4 slave device failure, 6 slave device busy); 0 = normal answers.
@@ -18,8 +21,10 @@ import asyncio
 import contextvars
 import errno
 import logging
+import math
 import socket
 import threading
+import time
 
 from pymodbus.datastore import ModbusServerContext
 from pymodbus.datastore.context import ModbusBaseSlaveContext
@@ -82,12 +87,18 @@ class _ModelContext(ModbusBaseSlaveContext):
         return [0] * count
 
     def setValues(self, fc_as_hex, address, values):
+        wall = time.time()          # when the write is served (after any injected delay)
         table = TABLE_OF_FUNCTION[fc_as_hex]
         t = self._clock()
+        halted = []
         if table == 'h':
+            if self._server.on_halt is not None:
+                halted = self._model.halts_in(address, values)
             self._model.write_holding(address, values, t)
         elif table == 'c':
             self._model.write_coils(address, values, t)
+        if halted:
+            self._server.on_halt(t, wall, halted)
         if self._server.on_write is not None:
             self._server.on_write(t)
 
@@ -113,8 +124,11 @@ def bind_problem(host, port):
 class ControllerServer(object):
     """Serves the model over Modbus TCP from a background thread."""
 
-    def __init__(self, model, clock, host='127.0.0.1', port=5020, unit=1, on_write=None):
-        """on_write(t): called (in the server thread) after every write to the model."""
+    def __init__(self, model, clock, host='127.0.0.1', port=5020, unit=1, on_write=None,
+                 on_halt=None):
+        """on_write(t): called (in the server thread) after every write to the model;
+        on_halt(t, wall, halted): after a write that halts axes (controller time, time.time()
+        when it was served, ControllerModel.halts_in's list)."""
         if host not in LOOPBACK_HOSTS and not host.startswith('127.'):
             raise ValueError('the simulated controller listens on loopback only, not %r' % host)
         self.host = host
@@ -123,6 +137,8 @@ class ControllerServer(object):
         self.delay = 0.0
         self.exception_code = 0
         self.on_write = on_write
+        self.on_halt = on_halt
+        self.outage_until = None       # controller time the drop_connections window ends
         self._context = ModbusServerContext(
             slaves={self.unit: _ModelContext(model, clock, self)}, single=False)
         self._server = None
@@ -160,8 +176,43 @@ class ControllerServer(object):
         return self._server is not None
 
     def set_listening(self, flag):
-        """Open or close the TCP listener (closing also drops every connection)."""
+        """Open or close the TCP listener (closing also drops every connection); ends a
+        drop_connections_for window."""
+        self.outage_until = None
         return self._call(self._set_listening(bool(flag)))
+
+    def drop_connections_for(self, duration, now):
+        """Close every client connection and refuse new ones (closed listener: connection
+        refused) until controller time now + duration; end_outage(now) listens again after
+        that. A new window replaces a running one; duration 0 ends a running window now.
+        Returns the number of connections closed."""
+        duration = float(duration)
+        if math.isnan(duration) or duration < 0.0:
+            raise ValueError('duration must be >= 0 s, not %r' % duration)
+        if duration == 0.0:
+            if self.outage_until is not None:
+                self.outage_until = now
+                self.end_outage(now)
+            return 0
+        count = self.connection_count()
+        self._call(self._set_listening(False))
+        self.outage_until = float(now) + duration
+        return count
+
+    def end_outage(self, now):
+        """Listen again when the drop_connections_for window is over at controller time now;
+        True when it did (False: no window, not over yet, or the port cannot be bound now;
+        then it tries again on the next call)."""
+        if self.outage_until is None or now < self.outage_until:
+            return False
+        if not self._call(self._set_listening(True)):
+            return False
+        self.outage_until = None
+        return True
+
+    @property
+    def in_outage(self):
+        return self.outage_until is not None
 
     async def _set_listening(self, flag):
         if flag and self._server is None:

@@ -21,3 +21,37 @@ def frame_stamp(now, joint_stamp, last_stamp=None):
     if last_stamp is not None and not stamp > last_stamp:
         return None
     return stamp
+
+
+#: camera name of the camera_silence fault that silences every camera
+ALL_CAMERAS = 'all'
+CAMERA_NAMES = ('stereo', 'hand')
+
+
+class CameraSilence(object):
+    """The camera_silence fault of one camera (named by its kind, stereo or hand): while
+    silent it publishes nothing and holds no clock, so the simulated clock runs on and the
+    silence, counted in ROS time, ends. Times are any totally ordered values."""
+
+    def __init__(self, name):
+        self.name = name
+        self.until = None
+
+    def applies(self, camera):
+        return camera in (self.name, ALL_CAMERAS)
+
+    def set(self, camera, until):
+        """A silence of `camera` until `until` (None or a time already past: it ends); True
+        when it concerns this camera."""
+        if not self.applies(camera):
+            return False
+        self.until = until
+        return True
+
+    def silent(self, now):
+        return self.until is not None and now < self.until
+
+    def hold(self, now, until):
+        """The clock hold a camera may ask for at `now` when it wants `until`: none while
+        silent (a silent camera never stops the clock)."""
+        return None if self.silent(now) else until

@@ -12,6 +12,7 @@ SUCTION_SEALED = 'suction_sealed'      # std_msgs/Bool, latched, world -> contro
 FRUITS = 'fruits'                      # harvest_sim/SimFruitArray, latched
 GET_SUMMARY = 'get_summary'            # harvest_sim/GetSimSummary
 ACTIVITY = 'activity'                  # harvest_sim/SimActivity, controller -> sim_clock
+CAMERA_SILENCE = 'camera_silence'      # harvest_sim/CameraSilence, latched, world -> cameras
 
 #: cameras (root namespace)
 STEREO_LEFT_IMAGE = 'bumblebee2/left/image_raw'
@@ -28,6 +29,7 @@ HAND_TRIGGER = 'hand_camera/image_trigger'
 CLOCK = '/clock'
 CLOCK_HOLD = 'sim/clock_hold'          # harvest_sim/ClockHold, sensors -> sim_clock
 CLOCK_ACTIVITY = 'sim/activity'        # harvest_sim/SimActivity, as the clock (root) names it
+CAMERA_SILENCE_ROOT = 'sim/camera_silence'   # the same, as the cameras (root) name it
 
 #: global parameter: cart positions (m along map +y) of the picking points
 PICKING_POINTS_PARAM = '/track/picking_points'

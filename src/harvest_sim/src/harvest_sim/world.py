@@ -13,7 +13,10 @@ the suction valve and the shear:
 * a held fruit still on its pedicel pulled more than `tear_distance` from where it hung is torn
   off -> DAMAGED;
 * closing the valve releases the held fruit: HARVESTED -> COLLECTED, HELD -> back to HANGING
-  at its place on the plant, DAMAGED (off the plant) -> falls to the floor.
+  at its place on the plant, DAMAGED (off the plant) -> falls to the floor;
+* `lose_vacuum` (the vacuum_loss fault): the held fruit drops off the suction sleeve: off the
+  plant (cut or torn) -> DROPPED on the floor; still on its pedicel -> back to HANGING. The cup
+  seals nothing until the valve has been closed again.
 
 Joint states and shear closes arrive on different topics, so their order is not guaranteed: a
 stamped shear close is judged with the first joint state stamped at or after it: from a short
@@ -84,6 +87,7 @@ class World(object):
         self.poses = geom.frame_transforms({})
         self.valve_open = False
         self.held = None                          # FruitTruth held by suction
+        self.vacuum_lost = False                  # lose_vacuum: no seal until the valve closes
         self.hold_offset = None                   # fruit centre in the suction tcp frame
         self.seal_events = 0
         self.cut_events = 0
@@ -127,7 +131,7 @@ class World(object):
                 self.state_version += 1
                 events.append('%s torn off its pedicel (pulled more than %.0f mm)'
                               % (self.held.id, self.tear_distance * 1000))
-        elif self.valve_open:
+        elif self.valve_open and not self.vacuum_lost:
             events += self._try_seal()
         return events
 
@@ -138,8 +142,29 @@ class World(object):
             return []
         self.valve_open = is_open
         if is_open:
-            return self._try_seal()
+            return [] if self.vacuum_lost else self._try_seal()
+        self.vacuum_lost = False
         return self._release()
+
+    def lose_vacuum(self):
+        """The vacuum_loss fault: the held fruit drops off the suction sleeve (off the plant:
+        DROPPED, on the floor; still on its pedicel: back on the plant) and the cup seals
+        nothing until the valve has been closed again."""
+        f = self.held
+        self.vacuum_lost = self.valve_open
+        if f is None:
+            return ['vacuum lost: the suction held nothing']
+        self.held, self.hold_offset = None, None
+        self.version += 1
+        self.state_version += 1
+        if f.attached:
+            if f.state == HELD:
+                f.state = HANGING          # a damaged fruit stays damaged
+            f.position = f.fruit.position.copy()
+            return ['vacuum lost: %s slipped off the suction sleeve, back on its pedicel' % f.id]
+        f.state = DROPPED
+        f.position = np.array([f.position[0], f.position[1], f.radius])
+        return ['vacuum lost: %s dropped off the suction sleeve to the floor' % f.id]
 
     def shear_cut(self, stamp=None):
         """One shear close. Applied now if stamp is None; with a stamp, judged with the first

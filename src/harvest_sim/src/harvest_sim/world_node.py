@@ -10,8 +10,15 @@ Subscriptions (relative; the node runs in namespace ``sim``):
 Publications:
   suction_sealed (std_msgs/Bool, latched)        true while the suction holds a fruit
   fruits (harvest_sim/SimFruitArray, latched)    every fruit, on change and at ~publish_rate
+  camera_silence (harvest_sim/CameraSilence, latched)  the camera_silence fault, to sim_camera
 Services:
   get_summary (harvest_sim/GetSimSummary)        counts by state
+  ~vacuum_loss (std_srvs/Trigger)                fault: the held fruit drops off the suction
+                                                 sleeve (World.lose_vacuum); suction_sealed
+                                                 goes false, so the controller reads no vacuum
+  ~camera_silence (harvest_sim/SilenceCamera)    fault: camera stereo, hand or all publishes
+                                                 nothing (and holds no clock) for `duration` s
+                                                 of ROS time
 Parameters:
   ~scenario (required): scenario name (scenarios/NAME.yaml) or file path
   ~robot_config: robot.yaml path (default visualization_pkg/config/robot.yaml); a bad file
@@ -30,11 +37,14 @@ import rospy
 from geometry_msgs.msg import Point
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Header
+from std_srvs.srv import Trigger, TriggerResponse
 
 from harvest_sim import names
 from harvest_sim import scenario as scn
-from harvest_sim.msg import SimFruit, SimFruitArray
-from harvest_sim.srv import GetSimSummary, GetSimSummaryResponse
+from harvest_sim.frame_timing import ALL_CAMERAS, CAMERA_NAMES
+from harvest_sim.msg import CameraSilence, SimFruit, SimFruitArray
+from harvest_sim.srv import (GetSimSummary, GetSimSummaryResponse, SilenceCamera,
+                             SilenceCameraResponse)
 from harvest_sim.world import World
 from motion_pkg.kinematics import RobotGeometry
 from visualization_pkg import robot_config
@@ -118,7 +128,11 @@ class SimWorldNode(object):
         self.sealed_pub = rospy.Publisher(names.SUCTION_SEALED, Bool, queue_size=1, latch=True)
         self.fruits_pub = rospy.Publisher(names.FRUITS, SimFruitArray, queue_size=1, latch=True)
         self._publish(force=True)
+        self.silence_pub = rospy.Publisher(names.CAMERA_SILENCE, CameraSilence, queue_size=5,
+                                           latch=True)
         rospy.Service(names.GET_SUMMARY, GetSimSummary, self._summary)
+        rospy.Service('~vacuum_loss', Trigger, self._on_vacuum_loss)
+        rospy.Service('~camera_silence', SilenceCamera, self._on_camera_silence)
         rospy.Subscriber(names.JOINT_STATES, JointState, self._on_joints, queue_size=5)
         rospy.Subscriber(names.SUCTION_VALVE, Bool, self._on_valve, queue_size=5)
         rospy.Subscriber(names.SHEAR_CUT, Header, self._on_cut, queue_size=5)
@@ -174,6 +188,30 @@ class SimWorldNode(object):
             self.sealed_pub.publish(Bool(data=sealed))
         if msg is not None:
             self.fruits_pub.publish(msg)
+
+    def _on_vacuum_loss(self, _req):
+        with self._lock:
+            events = self.world.lose_vacuum()
+        for e in events:
+            rospy.logwarn('sim_world: injected fault: %s', e)
+        self._publish()
+        return TriggerResponse(success=True, message='; '.join(events))
+
+    def _on_camera_silence(self, req):
+        if req.camera not in CAMERA_NAMES + (ALL_CAMERAS,):
+            return SilenceCameraResponse(success=False, message='unknown camera %r (%s)' % (
+                req.camera, ', '.join(CAMERA_NAMES + (ALL_CAMERAS,))))
+        if not req.duration >= 0.0:
+            return SilenceCameraResponse(success=False, message='duration must be >= 0 s')
+        now = rospy.Time.now()
+        until = now + rospy.Duration.from_sec(req.duration) if req.duration > 0.0 \
+            else rospy.Time(0)
+        self.silence_pub.publish(CameraSilence(camera=req.camera, until=until))
+        text = ('camera %s silent for %.3f s, until %.3f' % (req.camera, req.duration,
+                                                            until.to_sec())
+                if req.duration > 0.0 else 'camera %s: silence ended' % req.camera)
+        rospy.logwarn('sim_world: injected fault: %s', text)
+        return SilenceCameraResponse(success=True, message=text)
 
     def _summary(self, _req):
         with self._lock:
