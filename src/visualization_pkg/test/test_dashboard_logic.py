@@ -15,7 +15,6 @@ import yaml
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(PKG, 'src'))
-sys.path.insert(0, os.path.join(PKG, '..', 'motion_pkg', 'src'))
 
 from visualization_pkg.arm_geometry import ArmGeometry  # noqa: E402
 from visualization_pkg.dashboard import (diagnostics_tree as dt, executive_state as es, image_convert,  # noqa: E402
@@ -289,3 +288,167 @@ def test_arm_polyline_matches_kinematics():
         tcp_in_base = np.linalg.inv(base).dot(poses[tcp_frame[side]])[:3, 3]
         assert np.allclose(arm.tool_centre(*q), tcp_in_base, atol=1e-9)
         assert math.hypot(*arm.polyline(*q)[2][:2]) == pytest.approx(arm.boom)
+
+
+# --- node module: start / stop / restart (fake rosnode / roslaunch layer) ---------------------------
+from visualization_pkg.dashboard import node_control as nc  # noqa: E402
+from visualization_pkg.dashboard import operator_events, shell_session  # noqa: E402
+
+
+class FakeLayer(object):
+    """rosnode/roslaunch stand-in: a dict of running nodes {name: pid}; respawning nodes come back."""
+
+    def __init__(self, running, specs, respawns=()):
+        self.running = dict(running)
+        self.specs = specs
+        self.respawns = set(respawns)
+        self.calls = []
+        self.next_pid = 1000
+
+    def pid(self, name):
+        return self.running.get(name)
+
+    def kill(self, name):
+        self.calls.append(('kill', name))
+        if name not in self.running:
+            return False, 'unknown node'
+        del self.running[name]
+        if name in self.respawns:
+            self.next_pid += 1
+            self.running[name] = self.next_pid
+        return True, 'killed'
+
+    def spec(self, name):
+        spec = self.specs.get(name)
+        return (spec, '') if spec else (None, '%s runs on another machine' % name)
+
+    def launch(self, spec):
+        self.calls.append(('launch', spec.name))
+        self.next_pid += 1
+        self.running[spec.name] = self.next_pid
+        return ('handle', spec.name)
+
+    def stop_process(self, handle):
+        self.calls.append(('stop_process', handle[1]))
+        self.running.pop(handle[1], None)
+
+
+def test_node_restart_relaunches_with_the_spec_of_its_registration():
+    spec = nc.NodeSpec('/motion_server', 'motion_pkg', 'motion_server', '/', '', [('joint_states', 'js')])
+    layer = FakeLayer({'/motion_server': 11}, {'/motion_server': spec})
+    ctl = nc.NodeController(layer)
+    status, text, to_launch = ctl.restart('motion_server', wait_back=lambda n, p: pytest.fail('not respawned'))
+    assert status == nc.OK and to_launch is spec and layer.calls == [('kill', '/motion_server')]
+    assert ctl.launch(to_launch)[0] == nc.OK
+    assert layer.calls[-1] == ('launch', '/motion_server') and '/motion_server' in ctl.launched
+    # a node this dashboard launched: restart stops its process and launches it again
+    status, _text, to_launch = ctl.restart('/motion_server', wait_back=lambda n, p: pytest.fail('own node'))
+    assert status == nc.OK and ('stop_process', '/motion_server') in layer.calls and to_launch is spec
+    ctl.shutdown()
+    assert layer.calls[-1] == ('stop_process', '/motion_server') and not ctl.launched
+
+
+def test_node_restart_of_a_respawned_node_waits_and_launches_nothing():
+    spec = nc.NodeSpec('/image_processing', 'vision_pkg', 'image_processing', respawn=True)
+    layer = FakeLayer({'/image_processing': 20}, {'/image_processing': spec}, respawns=['/image_processing'])
+    waited = []
+    ctl = nc.NodeController(layer)
+    status, text, to_launch = ctl.restart('/image_processing',
+                                          lambda n, old: waited.append(old) or layer.pid(n) not in (None, old))
+    assert (status, to_launch, waited) == (nc.OK, None, [20]) and 'respawned' in text
+    assert not [c for c in layer.calls if c[0] == 'launch']
+    status, text, _ = ctl.restart('/image_processing', lambda n, old: False)
+    assert status == nc.FAILED and 'did not respawn' in text
+
+
+def test_node_restart_without_package_is_refused_before_any_kill():
+    layer = FakeLayer({'/remote_node': 5}, {})
+    ctl = nc.NodeController(layer)
+    status, text, to_launch = ctl.restart('/remote_node', lambda n, p: True)
+    assert status == nc.REFUSED and to_launch is None and 'another machine' in text and 'refused' in text
+    assert layer.calls == [] and layer.pid('/remote_node') == 5
+    assert ctl.start('/remote_node')[0] == nc.REFUSED           # running already
+
+
+def test_node_stop_then_start_uses_the_spec_seen_at_the_stop():
+    spec = nc.NodeSpec('/robot/dummy', 'visualization_pkg', 'dummy_node', '/robot/')
+    layer = FakeLayer({'/robot/dummy': 3}, {'/robot/dummy': spec})
+    ctl = nc.NodeController(layer)
+    assert ctl.stop('/robot/dummy')[0] == nc.OK and layer.pid('/robot/dummy') is None
+    layer.specs = {}                                            # gone from the graph: no spec any more
+    status, text = ctl.start('/robot/dummy')
+    assert status == nc.OK and layer.calls[-1] == ('launch', '/robot/dummy')
+    assert ctl.stop('/never_ran')[0] == nc.REFUSED
+
+
+def test_node_spec_from_a_command_line():
+    pkgs = {'/ws/src/motion_pkg/scripts/motion_server': 'motion_pkg', '/opt/ros/lib/rosout/rosout': 'rosout'}
+    spec, why = nc.spec_from_cmdline('/robot/motion_server',
+                                     ['/ws/.venv/bin/python', '/ws/src/motion_pkg/scripts/motion_server',
+                                      '--fast', 'joint_states:=js', '__name:=motion_server', '__log:=/x.log'],
+                                     pkgs.get)
+    assert (spec.package, spec.node_type, spec.namespace, spec.args, spec.remaps) == (
+        'motion_pkg', 'motion_server', '/robot/', '--fast', [('joint_states', 'js')]) and not why
+    assert spec.base_name == 'motion_server'
+    spec, _ = nc.spec_from_cmdline('/rosout', ['/opt/ros/lib/rosout/rosout', '__name:=rosout'], pkgs.get)
+    assert (spec.package, spec.node_type, spec.namespace) == ('rosout', 'rosout', '/')
+    spec, why = nc.spec_from_cmdline('/x', ['/usr/bin/python3', '/tmp/x.py'], pkgs.get)
+    assert spec is None and 'not inside a ROS package' in why
+    assert nc.spec_from_cmdline('/x', [], pkgs.get)[0] is None
+
+
+def test_node_layer_finds_the_package_of_a_script():
+    from visualization_pkg.dashboard.node_layer import package_of
+    assert package_of(os.path.join(PKG, 'scripts', 'harvest_dashboard')) == 'visualization_pkg'
+    assert package_of('/opt/ros/noetic/lib/rosout/rosout') == 'rosout'
+
+
+# --- operator events, shell logic, waist jog, rviz fallback -----------------------------------------
+def test_operator_events_follow_the_mission_id():
+    tracker = operator_events.MissionIdTracker(operator_events.fallback_mission_id(0))
+    assert tracker.mission_id() == 'operator-19700101'
+    tracker.seen('operator-19700101')                            # our own echo does not count
+    tracker.seen('m-42')
+    assert operator_events.event_fields(tracker, 'node_stop', 'ok', '/a stopped') == (
+        'm-42', 'operator', 'node_stop', 'ok: /a stopped')
+
+
+def test_shell_history_and_interrupt_targets():
+    h = shell_session.CommandHistory()
+    for line in ('ls', 'ls', '', 'echo hi'):
+        h.add(line)
+    assert h.items == ['ls', 'echo hi']
+    assert h.up('draft') == 'echo hi' and h.up('echo hi') == 'ls' and h.up('ls') == 'ls'
+    assert h.down('ls') == 'echo hi' and h.down('echo hi') == 'draft'
+    parents = {10: 1, 11: 10, 12: 11, 13: 10, 20: 1}
+    assert shell_session.descendants(10, parents) == [11, 13, 12]
+    sent = []
+    assert shell_session.interrupt(10, parents, kill=lambda pid, sig: sent.append((pid, sig))) == [11, 13, 12]
+    assert all(sig == shell_session.signal.SIGINT for _pid, sig in sent) and 10 not in [p for p, _ in sent]
+    assert shell_session.interrupt(20, parents, kill=lambda pid, sig: pytest.fail('idle')) == []
+    rc = shell_session.rc_text(["/w/it's/devel/setup.bash"])
+    assert ". '/w/it'\\''s/devel/setup.bash'" in rc
+
+
+def test_waist_jog_target_and_limits():
+    with open(ROBOT_YAML) as f:
+        robot = yaml.safe_load(f)
+    limits = manual_ops.limits_from_robot_yaml(robot)
+    assert limits[manual_ops.WAIST_JOINT] == (robot['robot']['waist']['min'], robot['robot']['waist']['max'])
+    assert manual_ops.waist_jog_target(0.1, {'waist_joint': 0.2}, limits) == (pytest.approx(0.3), '')
+    target, note = manual_ops.waist_jog_target(1.0, {'waist_joint': 3.0}, limits)
+    assert target == limits['waist_joint'][1] and 'clamped' in note
+    with pytest.raises(ValueError):
+        manual_ops.waist_jog_target(0.1, {}, limits)
+
+
+def test_rviz_embedding_blockers():
+    pytest.importorskip('python_qt_binding.QtWidgets')
+    from visualization_pkg.dashboard import rviz_panel as rp
+    assert 'offscreen' in rp.embed_blocker('offscreen', {'DISPLAY': ':0'})
+    assert rp.embed_blocker('xcb', {}) == 'no DISPLAY' and rp.embed_blocker('xcb', {'DISPLAY': ':1'}) == ''
+    assert rp.window_blocker({}) == 'no display'
+    assert rp.window_blocker({'DISPLAY': ':1'}, which=lambda n: None) == 'rosrun not found'
+    assert 'own window' in rp.fallback_line('x', '') and 'cannot run here' in rp.fallback_line('x', 'no display')
+    panel, reason = rp.make_rviz('', 'xcb', {'DISPLAY': ':1'}, probe_fn=lambda: 'rviz cannot initialise here (y)')
+    assert panel is None and ('cannot initialise' in reason or 'bindings' in reason)

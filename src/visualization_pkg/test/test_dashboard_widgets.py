@@ -195,3 +195,146 @@ def test_mission_plot_paints(app):
     assert image.width() > 0
     colours = set(image.pixel(x, y) for x in range(0, image.width(), 5) for y in range(0, image.height(), 5))
     assert len(colours) > 4                                 # bars drawn, not a blank widget
+
+
+def wait_until(predicate, timeout=20.0):
+    """Run the Qt event loop until predicate() holds or `timeout` s pass (a bounded QEventLoop wait)."""
+    from python_qt_binding.QtCore import QElapsedTimer, QEventLoop, QTimer
+    loop = QEventLoop()
+    clock = QElapsedTimer()
+    clock.start()
+    poll = QTimer()
+    poll.timeout.connect(lambda: (predicate() or clock.elapsed() > timeout * 1000) and loop.quit())
+    poll.start(20)
+    if not predicate():
+        loop.exec_()
+    poll.stop()
+    return predicate()
+
+
+class FakeEvents(object):
+    def __init__(self):
+        self.sent = []
+
+    def publish(self, action, outcome, text):
+        self.sent.append((action, outcome, text))
+
+
+@pytest.fixture
+def shell(app):
+    from visualization_pkg.dashboard.shell_panel import ShellPanel
+    panel = ShellPanel(setup_files=[])
+    panel.start()
+    yield panel
+    panel.shutdown()
+
+
+def test_shell_runs_a_command_with_coloured_output(shell):
+    from visualization_pkg.dashboard.shell_panel import STDERR_COLOUR, STDOUT_COLOUR
+    assert shell.run('echo hello')
+    assert wait_until(lambda: 'hello' in shell.text_in(STDOUT_COLOUR))
+    shell.line.setText('echo oops >&2')
+    shell.run_line()
+    assert wait_until(lambda: 'oops' in shell.text_in(STDERR_COLOUR))
+    assert 'oops' not in shell.text_in(STDOUT_COLOUR) and shell.history.items == ['echo hello', 'echo oops >&2']
+
+
+def test_shell_ctrl_c_ends_the_running_command(shell):
+    from visualization_pkg.dashboard import shell_session
+    from visualization_pkg.dashboard.shell_panel import STDOUT_COLOUR
+    pid = int(shell.process.processId())
+    shell.run('echo ready')                                 # the rc file (~/.bashrc too) has run
+    assert wait_until(lambda: 'ready' in shell.text_in(STDOUT_COLOUR))
+
+    def cmdline(p):
+        try:
+            with open('/proc/%d/cmdline' % p, 'rb') as f:
+                return f.read()
+        except OSError:                                     # ended meanwhile
+            return b''
+
+    def sleeping():
+        return [p for p in shell_session.descendants(pid, shell_session.parent_map())
+                if cmdline(p).startswith(b'sleep')]
+    shell.run('sleep 100; echo "status $?"')
+    assert wait_until(lambda: len(sleeping()) == 1)
+    assert shell.interrupt()
+    # sleep died of SIGINT: bash reports 128 + 2 and the shell itself is still there
+    assert wait_until(lambda: 'status 130' in shell.text_in(STDOUT_COLOUR))
+    assert shell.run('echo alive') and wait_until(lambda: 'alive' in shell.text_in(STDOUT_COLOUR))
+
+
+def test_embedded_rviz_dock_or_fallback_line(app, tmp_path, monkeypatch):
+    from visualization_pkg.dashboard import rviz_panel
+    from visualization_pkg.dashboard.main_window import DashboardWindow
+    monkeypatch.delenv('DISPLAY', raising=False)        # no second rviz window out of a test
+    monkeypatch.delenv('WAYLAND_DISPLAY', raising=False)
+    lines = []
+    monkeypatch.setattr(rviz_panel.rospy, 'logwarn', lambda text, *a: lines.append(text % a if a else text))
+    w = DashboardWindow({'embedded_rviz': True}, QSettings(str(tmp_path / 'd.ini'), QSettings.IniFormat))
+    if w.rviz is not None:
+        assert isinstance(w.rviz.parentWidget(), QtWidgets.QDockWidget)
+    else:
+        assert lines == [w.rviz_log] and 'rviz not embedded' in w.rviz_log and w.rviz_process is None
+    plain = DashboardWindow(settings=QSettings(str(tmp_path / 'e.ini'), QSettings.IniFormat))
+    assert plain.rviz is None and plain.shell is None and len(plain.panels) == 8   # both off by default
+    w.shutdown()
+    plain.shutdown()
+
+
+def test_nodes_panel_actions_confirm_and_publish_events(app):
+    from test_dashboard_logic import FakeLayer
+    from visualization_pkg.dashboard import node_control as nc
+    from visualization_pkg.dashboard.nodes_panel import NodesPanel
+    spec = nc.NodeSpec('/task_planner', 'control_pkg', 'task_planner')
+    layer = FakeLayer({'/task_planner': 7, '/dummy': 8}, {'/task_planner': spec})
+    events = FakeEvents()
+    running = [True]
+    panel = NodesPanel(critical=['task_planner'], mission_running=lambda: running[0], events=events, layer=layer)
+    panel.check = lambda: None                          # no master here
+    asked = []
+    panel.confirm = lambda q: asked.append(q) or False
+    assert not panel.act('restart', '/task_planner')
+    assert asked and layer.calls == [] and events.sent[-1][:2] == ('node_restart', nc.REFUSED)
+    panel.confirm = lambda q: True
+    assert panel.act('restart', '/task_planner')
+    assert wait_until(lambda: not panel.acting)
+    assert layer.calls == [('kill', '/task_planner'), ('launch', '/task_planner')]
+    assert events.sent[-1][:2] == ('node_restart', nc.OK)
+    running[0] = False
+    panel.confirm = lambda q: pytest.fail('no confirmation for a non-critical node or without a mission')
+    assert panel.act('restart', '/dummy') and wait_until(lambda: not panel.acting)
+    assert events.sent[-1][:2] == ('node_restart', nc.REFUSED) and layer.pid('/dummy') == 8
+    assert 'another machine' in panel.action_label.text()
+    assert panel.act('stop', '/dummy') and wait_until(lambda: not panel.acting)
+    assert events.sent[-1][:2] == ('node_stop', nc.OK) and layer.pid('/dummy') is None
+    panel.shutdown()
+    assert ('stop_process', '/task_planner') in layer.calls     # what the dashboard started stops with it
+
+
+def test_waist_jog_row_gate_and_events(app):
+    from visualization_pkg.dashboard import executive_state as es
+    from visualization_pkg.dashboard.operation_panel import OperationPanel
+    events = FakeEvents()
+    op = OperationPanel(events=events)
+    assert op.findChild(QtWidgets.QPushButton, 'jog_waist_joint_plus') is not None
+    op._on_root_status(status('/SM_ROOT', ['RUN']))
+    assert op.mode() == es.RUNNING
+    assert not op.jog('waist_joint', 0.1) and 'mission is running' in op.last_message
+    assert events.sent[-1][:2] == ('jog', 'refused')
+    assert not op.move_cart(1) and events.sent[-1][:2] == ('move_cart', 'refused')
+    op._on_root_status(status('/SM_ROOT', ['DO_STOP']))
+    op.positions['waist_joint'] = 0.5
+    assert not op.jog('waist_joint', 0.1) and 'no waist command' in op.last_message
+    assert events.sent[-1][0] == 'jog' and '0.600' in events.sent[-1][2]
+
+
+def test_operator_events_do_not_switch_the_mission_panel(app):
+    from harvest_msgs.msg import MissionEvent
+    from visualization_pkg.dashboard.mission_panel import MissionPanel
+    panel = MissionPanel()
+    panel.on_event(MissionEvent(mission_id='m1', kind='state', state='START', detail='mission m1 started'))
+    panel.stats.add_record('m1', 0, 1, 0, '', ['DO_KINEMATICS'], [0.2], 1.5)
+    panel.on_event(MissionEvent(mission_id='operator-20260101', kind='operator', state='node_stop', detail='ok: /x'))
+    assert panel.stats.mission_id == 'm1' and len(panel.stats.fruits) == 1
+    assert 'node_stop' in panel.state_label.text()

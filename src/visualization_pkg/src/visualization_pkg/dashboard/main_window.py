@@ -1,15 +1,21 @@
 """The dashboard window: every panel in a dock, the emergency stop in a fixed toolbar."""
+import os
+
+import rospy
 from python_qt_binding.QtCore import QSettings, Qt, QTimer, Signal
 from python_qt_binding.QtGui import QFont
-from python_qt_binding.QtWidgets import (QAction, QDockWidget, QLabel, QMainWindow, QSizePolicy, QToolBar,
-                                         QWidget)
+from python_qt_binding.QtWidgets import (QAction, QApplication, QDockWidget, QLabel, QMainWindow, QSizePolicy,
+                                         QToolBar, QWidget)
 
+from visualization_pkg.dashboard import executive_state as es
+from visualization_pkg.dashboard import rviz_panel
 from visualization_pkg.dashboard.console_panel import ConsolePanel
 from visualization_pkg.dashboard.diagnostics_panel import DiagnosticsPanel
 from visualization_pkg.dashboard.image_panel import DEFAULT_TOPICS, ImagePanel
 from visualization_pkg.dashboard.mission_panel import MissionPanel
 from visualization_pkg.dashboard.nodes_panel import NodesPanel
 from visualization_pkg.dashboard.operation_panel import OperationPanel
+from visualization_pkg.dashboard.operator_events import OperatorEventPublisher
 from visualization_pkg.dashboard.qt_common import QSettingsGroup, Settings
 from visualization_pkg.dashboard.reconfigure_panel import ReconfigurePanel
 from visualization_pkg.dashboard.smach_panel import StateMachinePanel
@@ -30,6 +36,11 @@ DEFAULT_CONFIG = {
     'diagnostics_topic': 'diagnostics_agg',
     'reconfigure_servers': [],
     'robot_yaml': '',
+    'critical_nodes': ['task_planner', 'motion_server', 'kinematics_server', 'image_processing', 'visual_servo'],
+    'respawn_timeout': 10.0,
+    'embedded_rviz': False,
+    'rviz_config': '',
+    'enable_shell': False,
 }
 
 
@@ -58,18 +69,32 @@ class DashboardWindow(QMainWindow):
         self.setDockNestingEnabled(True)
         self.settings = settings if settings is not None else QSettings('harvest', 'harvest_dashboard')
         self._shut = False
+        self.events = OperatorEventPublisher()
 
         self.images = ImagePanel([(t['title'], t['topic']) for t in cfg['image_topics']])
         self.smach = StateMachinePanel(cfg['introspection_server'])
         self.operation = OperationPanel(cfg['executive'], cfg['introspection_server'], cfg['estop_topic'],
-                                        cfg['halt_service'], cfg['actions'], cfg['action_timeout'], cfg['robot_yaml'])
-        self.nodes = NodesPanel(cfg['expected_nodes'], cfg['node_check_period'])
+                                        cfg['halt_service'], cfg['actions'], cfg['action_timeout'], cfg['robot_yaml'],
+                                        events=self.events)
+        self.nodes = NodesPanel(cfg['expected_nodes'], cfg['node_check_period'], cfg['critical_nodes'],
+                                cfg['respawn_timeout'], mission_running=self._mission_running, events=self.events)
         self.console = ConsolePanel(cfg['console_topic'])
         self.diagnostics = DiagnosticsPanel(cfg['diagnostics_topic'])
         self.reconfigure = ReconfigurePanel(cfg['reconfigure_servers'])
         self.mission = MissionPanel()
         self.panels = [self.images, self.smach, self.operation, self.nodes, self.console, self.diagnostics,
                        self.reconfigure, self.mission]
+        # optional modules: docks only when enabled
+        self.rviz = None
+        self.rviz_process = None
+        self.rviz_log = ''
+        if cfg['embedded_rviz']:
+            self._setup_rviz(cfg['rviz_config'])
+        self.shell = None
+        if cfg['enable_shell']:
+            from visualization_pkg.dashboard.shell_panel import ShellPanel
+            self.shell = ShellPanel()
+            self.panels.append(self.shell)
 
         # the emergency stop lives in a fixed toolbar: always visible, whatever the docks do
         bar = QToolBar('Emergency stop')
@@ -122,6 +147,25 @@ class DashboardWindow(QMainWindow):
         self._timer.timeout.connect(self._tick)
         self.quit_requested.connect(self.close, Qt.QueuedConnection)
 
+    def _setup_rviz(self, config_path):
+        panel, reason = rviz_panel.make_rviz(config_path, QApplication.platformName())
+        if panel is not None:
+            self.rviz = panel
+            self.panels.append(panel)
+            return
+        window_reason = rviz_panel.window_blocker(os.environ)
+        self.rviz_log = rviz_panel.fallback_line(reason, window_reason)
+        rospy.logwarn(self.rviz_log)
+        if not window_reason:
+            self.rviz_process = rviz_panel.start_rviz_window(config_path, self)
+
+    def _mission_running(self):
+        """True / False, or None while the executive's state is not known yet (for the nodes panel)."""
+        mode = self.operation.mode()
+        if mode == es.UNKNOWN:
+            return None
+        return mode in (es.RUNNING, es.PAUSED)
+
     def _default_layout(self):
         """Images and manual operation on the left, the state machine in the middle, the mission on
         the right; console, diagnostics, reconfigure and nodes tabbed below the state machine."""
@@ -140,6 +184,13 @@ class DashboardWindow(QMainWindow):
         self.tabifyDockWidget(d[self.console], d[self.nodes])
         self.tabifyDockWidget(d[self.nodes], d[self.diagnostics])
         self.tabifyDockWidget(d[self.diagnostics], d[self.reconfigure])
+        if self.rviz is not None:
+            self.addDockWidget(Qt.RightDockWidgetArea, d[self.rviz])
+            self.tabifyDockWidget(d[self.smach], d[self.rviz])
+            d[self.smach].raise_()
+        if self.shell is not None:
+            self.addDockWidget(Qt.RightDockWidgetArea, d[self.shell])
+            self.tabifyDockWidget(d[self.reconfigure], d[self.shell])
         d[self.console].raise_()
         self.resizeDocks([d[self.images], d[self.smach], d[self.mission]], [520, 760, 480], Qt.Horizontal)
         self.resizeDocks([d[self.images], d[self.operation]], [330, 620], Qt.Vertical)
@@ -147,6 +198,7 @@ class DashboardWindow(QMainWindow):
 
     # --- life cycle -----------------------------------------------------------------------------
     def start(self):
+        self.events.start()
         for panel in self.panels:
             panel.start()
         self._timer.start()
@@ -168,6 +220,11 @@ class DashboardWindow(QMainWindow):
         self._timer.stop()
         for panel in self.panels:
             panel.shutdown()
+        self.events.shutdown()
+        if self.rviz_process is not None:
+            self.rviz_process.terminate()
+            if not self.rviz_process.waitForFinished(3000):
+                self.rviz_process.kill()
 
     # --- settings ---------------------------------------------------------------------------------
     def save_settings(self):

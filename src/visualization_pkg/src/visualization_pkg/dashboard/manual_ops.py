@@ -1,6 +1,7 @@
 """Manual operation: jog goals from the current joint states and the robot.yaml limits (no rospy)."""
 ARMS = ('left', 'right')                      # MoveRobot `arm`: True = left (cutting), False = right
 ARM_JOINTS = ('lift', 'boom', 'forearm')      # MoveRobot target_joint.positions order
+WAIST_JOINT = 'waist_joint'                   # robot.yaml axis `waist`, joint_states / URDF name
 
 
 def jog_joint_names():
@@ -14,7 +15,24 @@ def limits_from_robot_yaml(robot):
     for arm in ARMS:
         for j in ARM_JOINTS:
             out['%s_%s_joint' % (arm, j)] = (float(lim[j]['min']), float(lim[j]['max']))
+    waist = robot['robot'].get('waist')
+    if waist is not None and 'waist' in robot.get('axes', ()):
+        out[WAIST_JOINT] = (float(waist['min']), float(waist['max']))
     return out
+
+
+def waist_jog_target(delta, positions, limits):
+    """(target angle, note) of a waist jog from joint_states; ValueError as jog_goal."""
+    if delta != delta or delta in (float('inf'), float('-inf')):
+        raise ValueError('jog step must be a finite number')
+    if WAIST_JOINT not in positions:
+        raise ValueError('no joint_states for %s yet' % WAIST_JOINT)
+    target = float(positions[WAIST_JOINT]) + delta
+    lo, hi = limits.get(WAIST_JOINT, (float('-inf'), float('inf')))
+    if target < lo or target > hi:
+        target = min(max(target, lo), hi)
+        return target, '%s clamped to its limit %.3f' % (WAIST_JOINT, target)
+    return target, ''
 
 
 def split_joint(name):

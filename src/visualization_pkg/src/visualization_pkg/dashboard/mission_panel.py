@@ -12,7 +12,7 @@ from python_qt_binding.QtWidgets import (QAbstractItemView, QHeaderView, QLabel,
 from std_msgs.msg import String
 
 from harvest_msgs.msg import MissionEvent, PickRecord
-from visualization_pkg.dashboard import mission_stats
+from visualization_pkg.dashboard import mission_stats, operator_events
 from visualization_pkg.dashboard.qt_common import Panel
 
 OUTCOME_COLOURS = {'picked': QColor('#2e7d32'), 'unreachable': QColor('#ef6c00'), 'lost': QColor('#8e24aa'),
@@ -213,6 +213,12 @@ class MissionPanel(Panel):
         self.table.scrollToBottom()
 
     def on_event(self, msg):
+        if msg.kind == operator_events.KIND:
+            # the dashboard's own record of an operator action: shown, but it never switches the
+            # mission (its id may be the operator-<date> fallback)
+            self.state_label.setText('<span style="color:#6a1b9a">operator: <b>%s</b> %s</span>'
+                                     % (msg.state, msg.detail))
+            return
         before = self.stats.mission_id
         self.stats.add_event(msg.mission_id, msg.kind, msg.state, msg.detail, msg.stamp.to_sec())
         if before != self.stats.mission_id:

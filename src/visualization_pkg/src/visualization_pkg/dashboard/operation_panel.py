@@ -5,7 +5,12 @@ The emergency stop is always accepted; it latches `emergency_stop` true, calls t
 `<executive>/emergency_stop` and `halt_all`, and cancels this panel's own goal (never the
 executive's: its states must see the stop through DO_STOP). It counts as
 confirmed once the executive reports DO_STOP. Every manual motion is refused unless the executive
-is paused (DO_STOP) or no mission is running (executive_state.manual_allowed).
+is paused (DO_STOP) or no mission is running (executive_state.manual_allowed). Every manual command,
+accepted or refused, is published as an operator mission event (operator_events.py).
+
+The waist has a jog row too (robot.yaml axis `waist`, joint `waist_joint`); motion_pkg has no waist
+command yet (move_robot moves one arm, move_base the cart), so a waist jog that passes the gate is
+refused with that reason until `actions/move_waist` names a server (none exists today).
 """
 import math
 import os
@@ -28,6 +33,7 @@ from harvest_msgs.msg import (EndEffectorAction, EndEffectorGoal, MoveBaseAction
 from visualization_pkg import robot_config
 from visualization_pkg.dashboard import executive_state as es
 from visualization_pkg.dashboard import manual_ops
+from visualization_pkg.dashboard.operator_events import OperatorEventPublisher
 from visualization_pkg.dashboard.qt_common import Panel, package_path, resource_path, ros_now
 
 EE_NAMES = {EndEffectorGoal.SUCTION_ON: 'suction on', EndEffectorGoal.SUCTION_OFF: 'suction off',
@@ -79,7 +85,8 @@ class OperationPanel(Panel):
     summary_received = Signal(object)
 
     def __init__(self, executive='task_planner', server='harvest_executive', estop_topic='emergency_stop',
-                 halt_service='halt_all', actions=None, action_timeout=60.0, robot_yaml='', parent=None):
+                 halt_service='halt_all', actions=None, action_timeout=60.0, robot_yaml='', events=None,
+                 parent=None):
         Panel.__init__(self, parent)
         loadUi(resource_path('operation.ui'), self)
         self.executive = executive.rstrip('/')
@@ -100,6 +107,8 @@ class OperationPanel(Panel):
         self._goal = None
         self._summary = ''
         self.limits = self._load_limits(robot_yaml)
+        self._own_events = events is None
+        self.events = OperatorEventPublisher() if events is None else events
 
         self.estop_button = EStopButton()
         self.estop_layout.addWidget(self.estop_button)
@@ -138,7 +147,7 @@ class OperationPanel(Panel):
             if text:
                 label = QLabel('<b>%s</b>' % text)
                 self.jog_grid.addWidget(label, 0, col)
-        for row, joint in enumerate(manual_ops.jog_joint_names(), start=1):
+        for row, joint in enumerate(manual_ops.jog_joint_names() + [manual_ops.WAIST_JOINT], start=1):
             linear = '_lift_' in joint
             self.jog_grid.addWidget(QLabel(joint.replace('_joint', '')), row, 0)
             value = QLabel('-')
@@ -177,6 +186,8 @@ class OperationPanel(Panel):
                         'move_robot': actionlib.ActionClient(self.actions['move_robot'], MoveRobotAction),
                         'end_effector': actionlib.ActionClient(self.actions['end_effector'], EndEffectorAction)}
         self.run_in_background('points', lambda: rospy.get_param('track/picking_points', []))
+        if self._own_events:
+            self.events.start()
         self._timer.start()
 
     def shutdown(self):
@@ -187,6 +198,8 @@ class OperationPanel(Panel):
         self._cancel_own_goal()
         for client in self.clients.values():
             client.stop()
+        if self._own_events:
+            self.events.shutdown()
 
     def _on_root_status(self, msg):
         now = ros_now()
@@ -228,7 +241,7 @@ class OperationPanel(Panel):
             self.estop_button.set_state(EStopButton.READY)
         allowed, reason = self.state.manual_allowed(ros_now())
         locked = {es.RUNNING: 'locked while the mission runs', es.UNKNOWN: 'locked until the executive is seen'}
-        self.jog_box.setTitle('Jog arm joints (move_robot)%s' % ('' if allowed else ' - ' + locked.get(mode, 'locked')))
+        self.jog_box.setTitle('Jog joints (arms: move_robot)%s' % ('' if allowed else ' - ' + locked.get(mode, 'locked')))
         for joint, label in self.jog_value_labels.items():
             if joint in self.positions:
                 v = self.positions[joint]
@@ -297,14 +310,21 @@ class OperationPanel(Panel):
         return True
 
     # --- manual motion ------------------------------------------------------------------------------
-    def _gate(self, what):
+    def manual_event(self, action, outcome, text):
+        """Record a manual command (accepted / refused / ok / failed) as an operator mission event."""
+        self.events.publish(action, outcome, text)
+
+    def _refuse(self, action, text):
+        self.report(text, ok=False)
+        self.manual_event(action, 'refused', text)
+        return False
+
+    def _gate(self, what, action='manual'):
         allowed, reason = self.state.manual_allowed(ros_now())
         if not allowed:
-            self.report('%s %s' % (what, reason), ok=False)
-            return False
+            return self._refuse(action, '%s %s' % (what, reason))
         if self.busy:
-            self.report('%s refused: %s still running' % (what, self.busy), ok=False)
-            return False
+            return self._refuse(action, '%s refused: %s still running' % (what, self.busy))
         return True
 
     def jog_step(self, joint, sign):
@@ -315,53 +335,62 @@ class OperationPanel(Panel):
     def jog(self, joint, delta):
         """Move one arm joint by `delta` (m or rad) from its current position. False when refused."""
         what = 'Jog %s %+.3f' % (joint, delta)
-        if not self._gate(what):
+        if not self._gate(what, 'jog'):
             return False
+        if joint == manual_ops.WAIST_JOINT:
+            return self._jog_waist(what, delta)
         try:
             arm_left, goal, note = manual_ops.jog_goal(joint, delta, self.positions, self.limits)
         except ValueError as exc:
-            self.report('%s refused: %s' % (what, exc), ok=False)
-            return False
+            return self._refuse('jog', '%s refused: %s' % (what, exc))
         msg = MoveRobotGoal(target_joint=JointTrajectoryPoint(positions=goal), arm=arm_left)
         self._send('move_robot', msg, '%s -> [%s]%s' % (what, ', '.join('%.3f' % g for g in goal),
-                                                         (' (%s)' % note) if note else ''))
+                                                         (' (%s)' % note) if note else ''), 'jog')
         return True
+
+    def _jog_waist(self, what, delta):
+        try:
+            target, note = manual_ops.waist_jog_target(delta, self.positions, self.limits)
+        except ValueError as exc:
+            return self._refuse('jog', '%s refused: %s' % (what, exc))
+        return self._refuse('jog', '%s -> %.3f rad%s refused: motion_pkg has no waist command (move_robot moves '
+                                   'one arm, move_base the cart)' % (what, target, (' (%s)' % note) if note else ''))
 
     def move_cart(self, point):
         what = 'Move cart to picking point %d' % point
-        if not self._gate(what):
+        if not self._gate(what, 'move_cart'):
             return False
-        self._send('move_base', MoveBaseGoal(picking_point=int(point)), what)
+        self._send('move_base', MoveBaseGoal(picking_point=int(point)), what, 'move_cart')
         return True
 
     def end_effector(self, command):
         what = EE_NAMES.get(command, 'end effector %d' % command).capitalize()
-        if not self._gate(what):
+        if not self._gate(what, 'end_effector'):
             return False
         if not self.confirm('%s now? The %s hand acts at once.' % (
                 what, 'left (cutting)' if command == EndEffectorGoal.SHEAR_CUT else 'right (suction)')):
-            self.report('%s cancelled' % what, ok=False)
-            return False
-        self._send('end_effector', EndEffectorGoal(command=command), what)
+            return self._refuse('end_effector', '%s cancelled' % what)
+        self._send('end_effector', EndEffectorGoal(command=command), what, 'end_effector')
         return True
 
-    def _send(self, client_name, goal, what):
+    def _send(self, client_name, goal, what, action):
         client = self.clients.get(client_name)
         if client is None:
-            self.report('%s refused: not connected to ROS' % what, ok=False)
+            self._refuse(action, '%s refused: not connected to ROS' % what)
             return
         self.busy = what
         self.report('%s: sent' % what)
-        self.run_in_background('action', self._run_goal, client, goal, what)
+        self.manual_event(action, 'accepted', what)
+        self.run_in_background('action', self._run_goal, client, goal, what, action)
 
-    def _run_goal(self, client, goal, what):
+    def _run_goal(self, client, goal, what, action):
         """Worker thread: send the goal and wait for its end (ROS time), cancelling it on timeout.
 
         Uses actionlib's ActionClient with a transition callback on the goal handle itself, so a
         fast server's DONE cannot be lost before the handle is stored (SimpleActionClient's race).
         """
         if not client.wait_for_server(rospy.Duration(2.0)):
-            return what, False, 'action server not available'
+            return what, False, 'action server not available', action
         done = threading.Event()
 
         def transition(gh):
@@ -373,14 +402,14 @@ class OperationPanel(Panel):
         while not done.wait(0.05):
             if rospy.is_shutdown() or self._closing:
                 gh.cancel()
-                return what, False, 'cancelled (shutting down)'
+                return what, False, 'cancelled (shutting down)', action
             if rospy.get_time() > deadline:
                 gh.cancel()
-                return what, False, 'no result within %.0f s (cancelled)' % self.action_timeout
+                return what, False, 'no result within %.0f s (cancelled)' % self.action_timeout, action
         status = gh.get_goal_status()
         text = gh.get_goal_status_text()
         return what, status == actionlib.GoalStatus.SUCCEEDED, '%s%s' % (
-            actionlib.GoalStatus.to_string(status).lower(), (': ' + text) if text else '')
+            actionlib.GoalStatus.to_string(status).lower(), (': ' + text) if text else ''), action
 
     def on_task_done(self, tag, result):
         if isinstance(result, Exception):
@@ -390,8 +419,9 @@ class OperationPanel(Panel):
             return
         if tag == 'action':
             self.busy = ''
-            what, ok, text = result
+            what, ok, text, action = result
             self.report('%s: %s' % (what, text), ok=ok)
+            self.manual_event(action, 'ok' if ok else 'failed', '%s: %s' % (what, text))
         elif tag == 'estop':
             for name, ok, text in result:
                 self.report('%s: %s' % (name, text or ('ok' if ok else 'failed')), ok=ok)

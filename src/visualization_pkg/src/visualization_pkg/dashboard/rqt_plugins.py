@@ -47,7 +47,7 @@ def _make_operation(cfg):
 
 def _make_nodes(cfg):
     from visualization_pkg.dashboard.nodes_panel import NodesPanel
-    return NodesPanel(cfg['expected_nodes'], cfg['node_check_period'])
+    return NodesPanel(cfg['expected_nodes'], cfg['node_check_period'], cfg['critical_nodes'], cfg['respawn_timeout'])
 
 
 def _make_console(cfg):
