@@ -64,7 +64,7 @@ def build_state_machine(context, estop_event, resume_event):
     root = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
     with root:
         smach.StateMachine.add('RUN', run, transitions={'estop': 'DO_STOP'})
-        smach.StateMachine.add('DO_STOP', DoStop(context, estop_event, resume_event),
+        smach.StateMachine.add('DO_STOP', DoStop(context, estop_event, resume_event, resumed=run),
                                transitions={'resume': 'RUN', 'shutdown': 'preempted'})
     root.estop_monitor = monitor
     return root

@@ -113,7 +113,8 @@ class TaskPlanner(object):
         self._event_pub = rospy.Publisher('mission/events', MissionEvent, queue_size=100)
         self._summary_pub = rospy.Publisher('mission/summary', String, queue_size=1, latch=True)
         self._state_pub = rospy.Publisher('~state', String, queue_size=1, latch=True)
-        self._halt = rospy.ServiceProxy('halt_all', Trigger)
+        self._halt = None                  # persistent halt_all proxy, made on first use
+        self._halt_lock = threading.Lock()
 
         self.estop = threading.Event()
         self.resume = threading.Event()
@@ -184,9 +185,14 @@ class TaskPlanner(object):
 
     def request_stop(self, source):
         if not self.estop.is_set():
-            rospy.logwarn('task_planner: emergency stop from %s', source)
             self.estop.set()
             self.sm.estop_monitor.wake()
+            # halt at once, from the thread that took the command: DO_STOP halts again once the
+            # state machine has unwound (tens to hundreds of ms later), and that second halt
+            # also covers a goal a state sent while the stop was under way
+            ok, message = self.halt_axes()
+            rospy.logwarn('task_planner: emergency stop from %s; axes halted: %s (%s)', source, ok,
+                          message)
 
     def request_resume(self, source):
         if self.estop.is_set():
@@ -194,12 +200,21 @@ class TaskPlanner(object):
             self.resume.set()
 
     def halt_axes(self):
-        try:
-            self._halt.wait_for_service(timeout=2.0)
-            resp = self._halt()
-            return resp.success, resp.message
-        except (rospy.ROSException, rospy.ServiceException) as exc:
-            return False, 'halt_all unavailable: %s' % exc
+        """Call halt_all through a persistent connection (made again once if it broke)."""
+        with self._halt_lock:
+            for attempt in (0, 1):
+                try:
+                    if self._halt is None:
+                        rospy.wait_for_service('halt_all', timeout=2.0)
+                        self._halt = rospy.ServiceProxy('halt_all', Trigger, persistent=True)
+                    resp = self._halt()
+                    return resp.success, resp.message
+                except (rospy.ROSException, rospy.ServiceException) as exc:
+                    if self._halt is not None:
+                        self._halt.close()
+                        self._halt = None
+                    if attempt:
+                        return False, 'halt_all unavailable: %s' % exc
 
     # --- records ---------------------------------------------------------------------------------
     def publish_event(self, kind, state, detail):

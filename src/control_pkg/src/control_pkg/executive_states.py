@@ -263,6 +263,20 @@ class EstopMonitor(smach.State):
         self._wake.set()
 
 
+def clear_preempts(state):
+    """Service every pending preempt request in a state's tree (containers' children too).
+
+    A preempt that reaches a state just as it finishes stays pending on it; left there, the
+    state would end 'preempted' at once the next time it runs. After an emergency stop, when
+    nothing in the mission runs any more, the mission starts again with none pending."""
+    if state.preempt_requested():
+        state.service_preempt()
+    get_children = getattr(state, 'get_children', None)
+    if get_children is not None:
+        for child in get_children().values():
+            clear_preempts(child)
+
+
 class DoStop(smach.State):
     """DO_STOP: emergency stop. Halts every axis and pauses the mission until a resume command.
 
@@ -271,11 +285,13 @@ class DoStop(smach.State):
       wake this state, which then does not resume)
     """
 
-    def __init__(self, context, estop_event, resume_event):
+    def __init__(self, context, estop_event, resume_event, resumed=None):
+        """resumed: the container that a resume runs again (its stale preempts are cleared)."""
         smach.State.__init__(self, outcomes=['resume', 'shutdown'])
         self._context = context
         self._estop = estop_event
         self._resume = resume_event
+        self._resumed = resumed
 
     def execute(self, ud):
         ok, message = self._context.halt()
@@ -293,6 +309,8 @@ class DoStop(smach.State):
             return 'shutdown'
         self._resume.clear()
         self._estop.clear()
+        if self._resumed is not None:
+            clear_preempts(self._resumed)
         self._context.publish_event('resume', 'DO_STOP', 'mission resumed')
         rospy.loginfo('executive: resumed')
         return 'resume'
