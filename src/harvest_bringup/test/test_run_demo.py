@@ -10,7 +10,6 @@ import pytest
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 RUN_DEMO = os.path.join(HERE, '..', '..', '..', 'tools', 'run_demo.py')
-sys.path.insert(0, os.path.join(HERE, '..', '..', 'harvest_sim', 'src'))   # harvest_sim.instance
 
 
 @pytest.fixture(scope='module')

@@ -5,12 +5,11 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 SRC = os.path.join(HERE, '..', '..')
-for p in (os.path.join(HERE, '..', 'src'), os.path.join(SRC, 'motion_pkg', 'src')):
-    if p not in sys.path:
-        sys.path.insert(0, p)
+if os.path.join(HERE, '..', 'src') not in sys.path:
+    sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from harvest_sim import scenario as scn  # noqa: E402
-from motion_pkg.kinematics import RobotGeometry  # noqa: E402
+from motion_pkg.kinematics import RobotGeometry  # noqa: E402  (the sourced workspace's)
 
 ROBOT_YAML = os.path.join(SRC, 'visualization_pkg', 'config', 'robot.yaml')
 SCENARIOS = os.path.normpath(os.path.join(HERE, '..', 'scenarios'))

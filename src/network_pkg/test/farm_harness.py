@@ -10,7 +10,6 @@ import pwd
 import random
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -18,109 +17,18 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG_SRC = os.path.normpath(os.path.join(HERE, '..', 'src'))
-DB_SRC = os.path.normpath(os.path.join(HERE, '..', '..', 'database_pkg', 'src'))
-for _path in (DB_SRC, PKG_SRC):
-    if _path not in sys.path:
-        sys.path.insert(0, _path)
-
-import requests  # noqa: E402
+if PKG_SRC not in sys.path:
+    sys.path.insert(0, PKG_SRC)
 
 from database_pkg.store import Store  # noqa: E402
+# shared with harvest_bringup's mission_plan rostest (harvest_test_utils, a test_depend)
+from harvest_test_utils.farm import FarmServer, subprocess_env  # noqa: E402,F401
+from harvest_test_utils.net import free_port, wait_for  # noqa: E402,F401
 
 DAY = 86400.0
 CHROMIUM_FLAGS = ['--headless', '--no-sandbox', '--disable-gpu', '--disable-quic',
                   '--disable-background-networking', '--disable-component-update',
                   '--disable-sync', '--no-first-run', '--hide-scrollbars']
-
-
-def subprocess_env():
-    env = dict(os.environ)
-    env['PYTHONPATH'] = os.pathsep.join([PKG_SRC, DB_SRC] + [
-        p for p in env.get('PYTHONPATH', '').split(os.pathsep) if p])
-    env['PYTHONUNBUFFERED'] = '1'
-    return env
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(('127.0.0.1', 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
-def wait_for(predicate, timeout, what, interval=0.05):
-    deadline = time.time() + timeout
-    while True:
-        value = predicate()
-        if value:
-            return value
-        if time.time() > deadline:
-            raise AssertionError('timed out after %.0f s waiting for %s' % (timeout, what))
-        time.sleep(interval)
-
-
-# ------------------------------------------------------------------------- farm server
-
-class FarmServer(object):
-    """``farm_server serve`` as a child process on a loopback port."""
-
-    def __init__(self, db_url, workdir, config_text=None, port=None):
-        self.db_url = db_url
-        self.port = port or free_port()
-        self.url = 'http://127.0.0.1:%d' % self.port
-        self.log_path = os.path.join(workdir, 'farm_server_%d.log' % self.port)
-        self.config = None
-        if config_text:
-            self.config = os.path.join(workdir, 'farm_%d.yaml' % self.port)
-            with open(self.config, 'w') as f:
-                f.write(config_text)
-        self.proc = None
-
-    def start(self, timeout=90.0):
-        cmd = [sys.executable, '-m', 'network_pkg.farm_server', '--db', self.db_url, 'serve',
-               '--port', str(self.port), '--log-level', 'warning']
-        if self.config:
-            cmd += ['--config', self.config]
-        log = open(self.log_path, 'ab')
-        self.proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT,
-                                     env=subprocess_env())
-        log.close()
-
-        def up():
-            if self.proc.poll() is not None:
-                raise AssertionError('farm server exited with %s:\n%s'
-                                     % (self.proc.returncode, self.log()))
-            try:
-                return requests.get(self.url + '/api/v1/health', timeout=1.0).ok
-            except requests.RequestException:
-                return False
-        wait_for(up, timeout, 'the farm server on port %d' % self.port, interval=0.1)
-        return self
-
-    def log(self):
-        try:
-            with open(self.log_path) as f:
-                return f.read()[-3000:]
-        except OSError:
-            return ''
-
-    def kill(self):
-        """SIGKILL: no clean shutdown (a crash or power cut of the server)."""
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.kill()
-            self.proc.wait(10)
-        self.proc = None
-
-    def stop(self):
-        if self.proc is not None and self.proc.poll() is None:
-            self.proc.terminate()
-            try:
-                self.proc.wait(10)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait(10)
-        self.proc = None
 
 
 # ------------------------------------------------------------------------- PostgreSQL

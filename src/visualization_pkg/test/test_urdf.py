@@ -15,7 +15,6 @@ import yaml
 HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(PKG, 'src'))
-sys.path.insert(0, os.path.join(PKG, '..', 'motion_pkg', 'src'))
 
 from visualization_pkg.urdf_generator import urdf_from_yaml  # noqa: E402
 from motion_pkg import kinematics as kin  # noqa: E402

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """A mission after a day of observations visits only the picking points of the farm server's plan.
 
-The test owns a real farm server process (network_pkg's test harness, embedded SQLite in a temp
+The test owns a real farm server process (harvest_test_utils.farm, embedded SQLite in a temp
 dir, on the loopback port ~farm_port, this robot's token from ~token_file). It uploads "yesterday's" scan of
 the row through network_pkg's own outbox and client: the scenario's fruit at their true map
 positions, ripe (score 0.8) at the points of ~planned and still green (0.3) everywhere else. The
@@ -15,12 +15,10 @@ server's plan for today must then be ~planned; the robot's uploader latches it o
 """
 import os
 import shutil
-import sys
 import tempfile
 import time
 import unittest
 
-import rospkg
 import rospy
 import rostest
 import yaml
@@ -30,13 +28,10 @@ from std_msgs.msg import Int32MultiArray
 from std_srvs.srv import Trigger
 
 from database_pkg.store import Store
+from harvest_test_utils.farm import FarmServer
 from network_pkg.outbox import FarmClient, Outbox, Uploader
 
 from mission_test import Watch
-
-# network_pkg's test harness runs the real farm server process (not installed: a test helper)
-sys.path.insert(0, os.path.join(rospkg.RosPack().get_path('network_pkg'), 'test'))
-import farm_harness  # noqa: E402
 
 DAY = 86400.0
 ROBOT = 'sim_robot'
@@ -97,9 +92,9 @@ class MissionPlanTest(unittest.TestCase):
             token = f.read().strip()
         work = tempfile.mkdtemp(prefix='mission_plan_farm_')
         self.addCleanup(shutil.rmtree, work, True)
-        server = farm_harness.FarmServer('sqlite:///' + os.path.join(work, 'farm.db'), work,
-                                         config_text=yaml.safe_dump({'robots': {ROBOT: token}}),
-                                         port=int(rospy.get_param('~farm_port')))
+        server = FarmServer('sqlite:///' + os.path.join(work, 'farm.db'), work,
+                            config_text=yaml.safe_dump({'robots': {ROBOT: token}}),
+                            port=int(rospy.get_param('~farm_port')))
         self.addCleanup(server.stop)
         server.start(timeout=120.0)
 

@@ -74,7 +74,9 @@ class Watch(object):
 
 
 class MissionTest(unittest.TestCase):
-    def test_mission(self):
+    """run_mission becomes test_<test-name> (scenario_case), one name per .test file."""
+
+    def run_mission(self):
         w = WATCH
         timeout = float(rospy.get_param('~timeout', 600.0))
         if rospy.get_param('~estop_during_right_move', False):
@@ -115,7 +117,15 @@ class MissionTest(unittest.TestCase):
         self.assertTrue(resp.success, resp.message)
 
 
+def scenario_case(test_name, case=MissionTest):
+    """`case` with its run_mission as test_<test_name>: every .test file runs this same node
+    under its own test-name (mission_three_targets, mission_estop...), and the JUnit testcase
+    (MissionTest.test_mission_estop) then says which scenario passed or failed."""
+    name = 'test_' + test_name.rsplit('/', 1)[-1]
+    return type(case.__name__, (case,), {name: case.run_mission})
+
+
 if __name__ == '__main__':
-    rospy.init_node('mission_test')
+    rospy.init_node('mission_test')     # roslaunch renames the node after the test-name
     WATCH = Watch()
-    rostest.rosrun('harvest_bringup', 'mission_test', MissionTest)
+    rostest.rosrun('harvest_bringup', 'mission_test', scenario_case(rospy.get_name()))
