@@ -452,3 +452,38 @@ def test_rviz_embedding_blockers():
     assert 'own window' in rp.fallback_line('x', '') and 'cannot run here' in rp.fallback_line('x', 'no display')
     panel, reason = rp.make_rviz('', 'xcb', {'DISPLAY': ':1'}, probe_fn=lambda: 'rviz cannot initialise here (y)')
     assert panel is None and ('cannot initialise' in reason or 'bindings' in reason)
+
+
+def test_launch_arguments_of_roslaunch_and_of_catkins_rostest():
+    # catkin's run_tests runs rostest with options whose values are separate words; taken for
+    # launch files they hid the node's declaration (respawn) from the node module
+    from visualization_pkg.dashboard import node_control as nc
+    argv = ['/ws/.venv/bin/python', '/usr/bin/rostest', '--pkgdir=/ws/src/visualization_pkg',
+            '--package=visualization_pkg', '--results-filename', 'test_node_control.xml',
+            '--results-base-dir', '/ws/build/test_results', '/ws/src/x/test/node_control.test']
+    assert nc.launch_arguments(argv) == (['/ws/src/x/test/node_control.test'], [])
+    argv = ['/usr/bin/python3', '/usr/bin/roslaunch', '-p', '11412', 'harvest_bringup',
+            'sim.launch', 'scenario:=three_targets', '--wait']
+    assert nc.launch_arguments(argv) == (['harvest_bringup', 'sim.launch'],
+                                         ['scenario:=three_targets'])
+    assert nc.launch_arguments(['/usr/bin/python3', '/opt/x/node.py']) == ([], [])
+
+
+def test_children_get_the_default_sigint_even_when_the_dashboard_ignores_it():
+    # a background job of a non-interactive shell (as under make) starts with SIGINT ignored,
+    # and an ignored signal stays ignored across exec: Ctrl-C in the shell panel did nothing
+    import signal
+    import subprocess
+    import sys
+    from visualization_pkg.dashboard.shell_session import DefaultSigintForChildren
+    probe = [sys.executable, '-c',
+             'import signal; print(signal.getsignal(signal.SIGINT) is signal.SIG_IGN)']
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        assert subprocess.check_output(probe).strip() == b'True'       # the trouble itself
+        with DefaultSigintForChildren():
+            assert subprocess.check_output(probe).strip() == b'False'
+            assert signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN, 'put back as it was'
+    finally:
+        signal.signal(signal.SIGINT, old)

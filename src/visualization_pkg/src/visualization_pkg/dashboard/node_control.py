@@ -59,6 +59,35 @@ def find_package_dir(path, is_package_dir):
     return None
 
 
+#: options of roslaunch and rostest whose value is the next word of the command line
+_VALUE_OPTIONS = frozenset((
+    '-p', '--port', '-w', '--numworkers', '-t', '--timeout', '--pid', '-u', '--server_uri',
+    '--run_id', '--master-logger-level', '--sigint-timeout', '--sigterm-timeout', '--args',
+    '--results-filename', '--results-base-dir', '--time-limit'))
+LAUNCHERS = ('roslaunch', 'rostest')
+
+
+def launch_arguments(argv):
+    """(launch words, name:=value args) of a roslaunch or rostest command line: the words name
+    the launch files as roslaunch takes them ([package] file ...); options and their values are
+    left out (catkin's run_tests runs `rostest --results-filename NAME --results-base-dir DIR
+    FILE`). ([], []) when argv is neither."""
+    starts = [i for i, a in enumerate(argv[:2]) if os.path.basename(a) in LAUNCHERS]
+    if not starts:
+        return [], []
+    words, args, skip = [], [], False
+    for a in argv[starts[0] + 1:]:
+        if skip:
+            skip = False
+        elif a.startswith('-'):
+            skip = a in _VALUE_OPTIONS          # '--opt=value' carries its value
+        elif ':=' in a:
+            args.append(a)
+        else:
+            words.append(a)
+    return words, args
+
+
 def spec_from_cmdline(name, argv, package_of):
     """NodeSpec from a node process's argv, or (None, why).
 

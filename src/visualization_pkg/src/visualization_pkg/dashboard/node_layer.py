@@ -16,7 +16,9 @@ except ImportError:  # pragma: no cover - Python 2
 import rosgraph
 import rospy
 
-from visualization_pkg.dashboard.node_control import NodeSpec, find_package_dir, spec_from_cmdline
+from visualization_pkg.dashboard.node_control import (NodeSpec, find_package_dir, launch_arguments,
+                                                      spec_from_cmdline)
+from visualization_pkg.dashboard.shell_session import DefaultSigintForChildren
 
 
 def _read_proc(pid, what):
@@ -115,16 +117,14 @@ class RosNodeLayer(object):
     def _from_roslaunch(name, parent_pid):
         """The node as its roslaunch parent's launch files declare it (respawn included), or None."""
         argv = proc_cmdline(parent_pid) if parent_pid else []
-        if not any(os.path.basename(a) in ('roslaunch', 'rostest') for a in argv[:2]):
+        words, args = launch_arguments(argv)
+        if not words:
             return None
         try:
             import roslaunch.config
             import roslaunch.rlutil
             import roslaunch.xmlloader
-            start = [i for i, a in enumerate(argv) if os.path.basename(a) in ('roslaunch', 'rostest')][0] + 1
-            words = [a for a in argv[start:] if not a.startswith('-')]
-            args = [a for a in words if ':=' in a]
-            files = roslaunch.rlutil.resolve_launch_arguments([a for a in words if ':=' not in a])
+            files = roslaunch.rlutil.resolve_launch_arguments(words)
             config = roslaunch.config.ROSLaunchConfig()
             loader = roslaunch.xmlloader.XmlLoader()
             for launch_file in files:
@@ -142,12 +142,14 @@ class RosNodeLayer(object):
     def launch(self, spec):
         import roslaunch.core
         import roslaunch.scriptapi
-        if self._launch is None:
-            self._launch = roslaunch.scriptapi.ROSLaunch()
-            self._launch.start()
-        node = roslaunch.core.Node(spec.package, spec.node_type, name=spec.base_name, namespace=spec.namespace,
-                                   args=spec.args, remap_args=list(spec.remaps), output='log')
-        return self._launch.launch(node)
+        with DefaultSigintForChildren():      # roslaunch stops a node with SIGINT first
+            if self._launch is None:
+                self._launch = roslaunch.scriptapi.ROSLaunch()
+                self._launch.start()
+            node = roslaunch.core.Node(spec.package, spec.node_type, name=spec.base_name,
+                                       namespace=spec.namespace, args=spec.args,
+                                       remap_args=list(spec.remaps), output='log')
+            return self._launch.launch(node)
 
     def stop_process(self, handle):
         try:

@@ -91,8 +91,10 @@ class ShellPanel(Panel):
         self.process.readyReadStandardOutput.connect(self._read_stdout)
         self.process.readyReadStandardError.connect(self._read_stderr)
         self.process.finished.connect(self._finished)
-        self.process.start('bash', ['--rcfile', self._rc, '-i'])
-        if not self.process.waitForStarted(5000):
+        with shell_session.DefaultSigintForChildren():         # so that Ctrl-C reaches commands
+            self.process.start('bash', ['--rcfile', self._rc, '-i'])
+            started = self.process.waitForStarted(5000)
+        if not started:
             self.append('bash did not start: %s' % self.process.errorString(), STDERR_COLOUR)
             return
         self.append('shell started: bash -i (%s)' % (', '.join(self.setup_files) or 'no workspace setup found'),

@@ -94,3 +94,31 @@ def interrupt(shell_pid, parents=None, kill=os.kill, sig=signal.SIGINT):
         except OSError:
             continue
     return sent
+
+
+class DefaultSigintForChildren(object):
+    """Context manager: processes started inside it get SIGINT's default action even when this
+    process ignores SIGINT (a background job of a non-interactive shell, as under `make`, starts
+    with SIGINT ignored, and an ignored signal stays ignored across fork and exec, so a Ctrl-C
+    to the shell's command or a roslaunch stop would do nothing). Meanwhile this process catches
+    SIGINT with a handler that does nothing, so it is not ended either; a handled signal goes
+    back to its default action in a child at exec. Only in the main thread (Python's rule for
+    signal handlers); elsewhere it changes nothing."""
+
+    def __enter__(self):
+        self._old = None
+        try:
+            if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+                self._old = signal.signal(signal.SIGINT, _ignore_sigint)
+        except ValueError:                      # not the main thread
+            self._old = None
+        return self
+
+    def __exit__(self, *exc):
+        if self._old is not None:
+            signal.signal(signal.SIGINT, self._old)
+        return False
+
+
+def _ignore_sigint(signum, frame):
+    """SIGINT caught and dropped while children are started (see DefaultSigintForChildren)."""
