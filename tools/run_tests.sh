@@ -63,7 +63,9 @@ fi
 echo "=== pytest (pure logic, no ROS master) beside the whole-mission rostests: ${MISSION_TARGETS[*]#run_tests_}"
 # plain make, not catkin_make: two catkin_make at once race on build/catkin_make.cache and then
 # both run cmake in the same build directory (catkin_make above has configured it already)
-make -C "$ROOT/build" "${PYTEST_TARGETS[@]}" -j1 > "$RESULTS/pytest.log" 2>&1 &
+# (-j2: two packages' pytest at a time; the missions leave CPU free while their simulated world
+# rests, and pytest, not the missions, had become the last to finish)
+make -C "$ROOT/build" "${PYTEST_TARGETS[@]}" -j2 > "$RESULTS/pytest.log" 2>&1 &
 PYTEST_PID=$!
 if ! make -C "$ROOT/build" "${MISSION_TARGETS[@]}" -j1 >> "$RESULTS/rostest.log" 2>&1; then
   tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
