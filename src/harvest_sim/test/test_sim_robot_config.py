@@ -1,7 +1,6 @@
 """The simulated controller refuses a bad robot.yaml naming the field (issue 14): a NaN joint
 limit crashed it at start with an unrelated message, a NaN speed made a model that cannot move."""
 
-import copy
 import os
 import sys
 
@@ -13,6 +12,7 @@ sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from harvest_sim.controller_model import axes_from_robot_config  # noqa: E402
 from visualization_pkg.robot_config import RobotConfigError  # noqa: E402
+from harvest_test_utils.config import with_value  # noqa: E402
 
 ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
 with open(ROBOT_YAML) as _f:
@@ -21,12 +21,7 @@ NAN = float('nan')
 
 
 def changed(path, value):
-    config = copy.deepcopy(ROBOT)
-    node = config
-    for key in path[:-1]:
-        node = node[key]
-    node[path[-1]] = value
-    return config
+    return with_value(ROBOT, path, value)
 
 
 @pytest.mark.parametrize('path,value,field', [

@@ -1,7 +1,6 @@
 """Bad input never moves the robot (issue 14): a bad robot.yaml is refused by motion_pkg's
 readers, and no NaN, infinity or overflow of a goal reaches the register encoding."""
 
-import copy
 import math
 import os
 import sys
@@ -17,6 +16,7 @@ from motion_pkg import kinematics as kin  # noqa: E402
 from motion_pkg import motion_goals as mg  # noqa: E402
 from motion_pkg.modbus_map import RegisterMap  # noqa: E402
 from visualization_pkg.robot_config import RobotConfigError  # noqa: E402
+from harvest_test_utils.config import with_value  # noqa: E402
 
 ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
 with open(ROBOT_YAML) as _f:
@@ -28,12 +28,7 @@ RIGHT = mg.arm_axes(False)
 
 
 def changed(path, value):
-    config = copy.deepcopy(ROBOT)
-    node = config
-    for key in path[:-1]:
-        node = node[key]
-    node[path[-1]] = value
-    return config
+    return with_value(ROBOT, path, value)
 
 
 def write(tmp_path, config):

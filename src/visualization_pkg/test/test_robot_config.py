@@ -23,6 +23,7 @@ from visualization_pkg import robot_config as rc  # noqa: E402
 from visualization_pkg.arm_geometry import ArmGeometry  # noqa: E402
 from visualization_pkg.dashboard import manual_ops  # noqa: E402
 from visualization_pkg.urdf_generator import build_urdf  # noqa: E402
+from harvest_test_utils.config import with_value  # noqa: E402
 
 ROBOT_YAML = os.path.join(PKG, 'config', 'robot.yaml')
 with open(ROBOT_YAML) as _f:
@@ -60,13 +61,7 @@ DICT_KEYS = [(p, k) for p, k, _ in NODES if not isinstance(k[-1], int)]
 KEYS_BY_PATH = dict((p, k) for p, k, _ in NODES)
 
 
-def _set(config, keys, value):
-    out = copy.deepcopy(config)
-    node = out
-    for key in keys[:-1]:
-        node = node[key]
-    node[keys[-1]] = value
-    return out
+_set = with_value
 
 
 def _delete(config, keys):
