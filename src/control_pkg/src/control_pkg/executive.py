@@ -21,6 +21,8 @@ ROOT (StateMachine)
                    -> DO_TOMATO_SCAN_HELD (the stereo head locates the presented fruit again,
                    now clear of the leaves and fruit that hid part of it)
         LEFT_ARM:  DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_VISUALSERVOING -> DO_MOVE_ENDEFFECTOR (cut)
+        (DO_KINEMATICS_CUT: with `check_cut_before_suction`, the cutting hand is solved first
+        and a fruit it cannot reach is skipped before the suction arm moves)
         PLACE:     DO_MOVE_ROBOT (left arm home) -> DO_MOVE_ROBOT_BOX (right arm to the box)
                    -> DO_MOVE_ENDEFFECTOR (suction off)
         RECOVER:   DO_MOVE_ENDEFFECTOR (suction off) -> DO_MOVE_ROBOT (left arm home)
@@ -95,6 +97,7 @@ class _Graph(object):
         self.cb = _Callbacks(context)
         self.pulls = [tuple(float(v) for v in p) for p in self.cfg.get('right_pulls', [])]
         self.relocate = float(self.cfg.get('relocate_tolerance', 0.0)) > 0.0
+        self.check_cut = bool(self.cfg.get('check_cut_before_suction', False))
 
     def action(self, label, key, spec, **kwargs):
         cfg = self.cfg
@@ -182,6 +185,14 @@ class _Graph(object):
                                 input_keys=['target'])
         add = smach.StateMachine.add
         with sm:
+            if self.check_cut:
+                # both arms solved before suction: a fruit the cutting hand cannot reach where it
+                # hangs is skipped before the suction arm touches it (`check_cut_before_suction`)
+                add('DO_KINEMATICS_CUT', self.action(
+                    'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=self.cb.cutting_goal,
+                    input_keys=['target'], result_cb=self.cb.cut_check_result,
+                    outcomes=['unreachable']),
+                    transitions={'succeeded': 'RIGHT_ARM', 'unreachable': 'unreachable'})
             add('RIGHT_ARM', self.right_arm(), transitions={
                 'succeeded': 'LEFT_ARM', 'unreachable': 'unreachable', 'lost': 'RECOVER_LOST'})
             add('LEFT_ARM', self.left_arm(), transitions={
@@ -336,6 +347,15 @@ class _Callbacks(object):
             return 'unreachable'
         if joints is not None:
             ud.joint_goal = joints
+        return None
+
+    def cut_check_result(self, ud, status, result):
+        """The cutting hand's solution before suction: only whether it exists counts."""
+        _, reason = goals.kinematics_solution(result)
+        if reason is not None:
+            self.context.fail('DO_KINEMATICS: the cutting hand cannot reach the peduncle: %s'
+                              % reason)
+            return 'unreachable'
         return None
 
     def move_goal(self, arm):

@@ -10,7 +10,7 @@ from smach_msgs.msg import SmachContainerStatus, SmachContainerStructure
 from std_msgs.msg import Bool, Int32, Int32MultiArray, String
 from std_srvs.srv import Trigger
 
-from harvest_msgs.msg import PickRecord
+from harvest_msgs.msg import EndEffectorGoal, PickRecord
 
 WAIT = 60.0
 
@@ -145,6 +145,27 @@ class ExecutiveTest(unittest.TestCase):
         moves = [g for g in w.goals if g.startswith('move_base')]
         self.assertEqual(moves, ['move_base 2', 'move_base 0'], 'the plan of the day was not followed')
         self.assertEqual(s['picked'], 1, s)          # the target at point 1 is not in the plan
+
+    def check_cut_check(self):
+        w = self.w
+        self.assertTrue(w.wait(lambda: w.goals_sub.get_num_connections() > 0),
+                        'mock/goals never connected')
+        rospy.wait_for_service('task_planner/start', timeout=WAIT)
+        resp = rospy.ServiceProxy('task_planner/start', Trigger)()
+        self.assertTrue(resp.success, resp.message)
+        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
+        s = w.summary
+        self.assertEqual(s['outcome'], 'succeeded', s)
+        self.assertEqual((s['picked'], s['unreachable'], s['lost'], s['failed']), (1, 1, 0, 0), s)
+        self.assertTrue(w.wait(lambda: len(w.records) == 2), 'expected 2 pick records')
+        skipped = [r for r in w.records if r.outcome == PickRecord.OUTCOME_UNREACHABLE][0]
+        self.assertEqual(skipped.target_id, 2)
+        self.assertIn('cutting hand cannot reach', skipped.reason)
+        self.assertNotIn('DO_MOVE_ROBOT', skipped.state_names)
+        self.assertNotIn('DO_MOVE_ENDEFFECTOR', skipped.state_names)
+        # the only suction of the mission is the picked fruit's
+        suction = 'end_effector %d' % EndEffectorGoal.SUCTION_ON
+        self.assertEqual(sum(1 for g in w.goals if g == suction), 1, w.goals)
 
     def check_missing(self):
         w = self.w

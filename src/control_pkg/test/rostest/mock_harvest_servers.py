@@ -3,7 +3,8 @@
 
 Params:
   ~points (int): number of picking points (sets /track/picking_points)
-  ~targets (dict: point index as string -> list of {id, unreachable?, lose?}): pickable tomatoes
+  ~targets (dict: point index as string -> list of {id, unreachable?, unreachable_left?, lose?}):
+      pickable tomatoes (unreachable_left: only the cutting arm cannot reach it)
   ~missing (list of action names): servers NOT started (a component missing at start)
   ~move_duration (float, s): how long a MoveRobot goal takes (preemptable)
 Publishes mock/halt_count (std_msgs/Int32, latched) and mock/goals (std_msgs/String: "<action> <detail>").
@@ -98,7 +99,7 @@ class MockServers(object):
     def kinematics(self, goal):
         spec = self.by_position.get(round(goal.target.point.y, 4), {})
         result = KinematicsResult()
-        if spec.get('unreachable'):
+        if spec.get('unreachable') or (goal.arm and spec.get('unreachable_left')):
             result.reachable = False
             result.reason = 'beyond reach (mock)'
         else:
