@@ -127,11 +127,9 @@ class ExecutiveTest(unittest.TestCase):
         self.assertEqual(s['outcome'], 'succeeded', s)
         self.assertEqual(s['picked'], 2, s)
 
-    def check_plan(self):
+    def start_and_finish(self):
+        """Start a mission of a task_planner with autostart false; its summary once it succeeded."""
         w = self.w
-        # the plan is latched before the mission starts (a farm plan comes from the uploader)
-        plan = rospy.wait_for_message('plan/picking_points', Int32MultiArray, timeout=WAIT)
-        self.assertEqual(list(plan.data), [2, 0])
         # mock/goals is not latched: a goal sent before this subscription is connected is lost
         # (the whole mock mission takes well under a second)
         self.assertTrue(w.wait(lambda: w.goals_sub.get_num_connections() > 0),
@@ -140,22 +138,22 @@ class ExecutiveTest(unittest.TestCase):
         resp = rospy.ServiceProxy('task_planner/start', Trigger)()
         self.assertTrue(resp.success, resp.message)
         self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
-        s = w.summary
-        self.assertEqual(s['outcome'], 'succeeded', s)
+        self.assertEqual(w.summary['outcome'], 'succeeded', w.summary)
+        return w.summary
+
+    def check_plan(self):
+        w = self.w
+        # the plan is latched before the mission starts (a farm plan comes from the uploader)
+        plan = rospy.wait_for_message('plan/picking_points', Int32MultiArray, timeout=WAIT)
+        self.assertEqual(list(plan.data), [2, 0])
+        s = self.start_and_finish()
         moves = [g for g in w.goals if g.startswith('move_base')]
         self.assertEqual(moves, ['move_base 2', 'move_base 0'], 'the plan of the day was not followed')
         self.assertEqual(s['picked'], 1, s)          # the target at point 1 is not in the plan
 
     def check_cut_check(self):
         w = self.w
-        self.assertTrue(w.wait(lambda: w.goals_sub.get_num_connections() > 0),
-                        'mock/goals never connected')
-        rospy.wait_for_service('task_planner/start', timeout=WAIT)
-        resp = rospy.ServiceProxy('task_planner/start', Trigger)()
-        self.assertTrue(resp.success, resp.message)
-        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
-        s = w.summary
-        self.assertEqual(s['outcome'], 'succeeded', s)
+        s = self.start_and_finish()
         self.assertEqual((s['picked'], s['unreachable'], s['lost'], s['failed']), (1, 1, 0, 0), s)
         self.assertTrue(w.wait(lambda: len(w.records) == 2), 'expected 2 pick records')
         skipped = [r for r in w.records if r.outcome == PickRecord.OUTCOME_UNREACHABLE][0]
