@@ -15,7 +15,10 @@ def free_port(host=LOOPBACK):
 
 def wait_for(predicate, timeout, what, interval=0.05):
     """Poll ``predicate`` until it returns something true and return that value; after
-    ``timeout`` wall seconds raise AssertionError naming ``what``."""
+    ``timeout`` wall seconds raise AssertionError naming ``what``.
+
+    For test harnesses outside ROS (a child process such as the farm server, before or without
+    a master): wall time on purpose, never used by a node."""
     deadline = time.monotonic() + timeout
     while True:
         value = predicate()

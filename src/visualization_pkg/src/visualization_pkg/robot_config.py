@@ -96,12 +96,18 @@ class _Checker(object):
                 self.report(path, problem)
 
     # --- shapes ----------------------------------------------------------------------------
+    def present(self, parent, key, field, optional):
+        """True when parent has key; an absent field that is not optional is reported missing."""
+        if key in parent:
+            return True
+        if not optional:
+            self.report(field, 'missing')
+        return False
+
     def mapping(self, parent, key, path, optional=False):
         """parent[key] when it is a mapping; None (reported unless optional and absent)."""
         field = _join(path, key)
-        if key not in parent:
-            if not optional:
-                self.report(field, 'missing')
+        if not self.present(parent, key, field, optional):
             return None
         value = parent[key]
         if not isinstance(value, dict):
@@ -112,9 +118,7 @@ class _Checker(object):
     def number(self, parent, key, path, minimum=None, positive=False, optional=False):
         """parent[key] as a finite float; None when absent or bad (reported)."""
         field = _join(path, key)
-        if key not in parent:
-            if not optional:
-                self.report(field, 'missing')
+        if not self.present(parent, key, field, optional):
             return None
         value = parent[key]
         if not _is_number(value):
@@ -134,9 +138,7 @@ class _Checker(object):
 
     def vector3(self, parent, key, path, optional=False):
         field = _join(path, key)
-        if key not in parent:
-            if not optional:
-                self.report(field, 'missing')
+        if not self.present(parent, key, field, optional):
             return None
         value = parent[key]
         if not isinstance(value, list) or len(value) != 3:
