@@ -861,9 +861,24 @@ class TomatoDetector(object):
         """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
         lie on its convex hull, radius in [0.8, r_high] x the inscribed radius `peak_r` (+2);
         residual = median radial misfit / r (1.0 for the fallback)."""
-        edge = part & outer
-        ys, xs = np.nonzero(edge)
         part8 = part.astype(np.uint8)
+        # the work is done on the part's bounding box (+1 px): a part of a large cluster is
+        # a small share of its region's crop
+        bx, by, bw, bh = cv2.boundingRect(part8)
+        if bw == 0 or bh == 0:
+            return None
+        x0, y0 = max(bx - 1, 0), max(by - 1, 0)
+        x1, y1 = min(bx + bw + 1, part8.shape[1]), min(by + bh + 1, part8.shape[0])
+        circle = TomatoDetector._fit_crop(part8[y0:y1, x0:x1], outer[y0:y1, x0:x1], peak_r,
+                                          r_high)
+        if circle is None:
+            return None
+        return (circle[0] + x0, circle[1] + y0) + tuple(circle[2:])
+
+    @staticmethod
+    def _fit_crop(part8, outer, peak_r, r_high):
+        """_fit_part() on a crop: part as 0/1 uint8."""
+        ys, xs = np.nonzero((part8 > 0) & outer)
         moments = cv2.moments(part8, True)
         if moments['m00'] <= 0:
             return None
