@@ -1,5 +1,4 @@
 from setuptools import setup
 from catkin_pkg.python_setup import generate_distutils_setup
 
-setup(**generate_distutils_setup(packages=['network_pkg', 'network_pkg.farm_server'],
-                                 package_dir={'': 'src'}))
+setup(**generate_distutils_setup(packages=['network_pkg'], package_dir={'': 'src'}))

@@ -19,7 +19,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'test'))
 
 import farm_harness  # noqa: E402  (also puts the package sources on sys.path)
-from network_pkg.farm_server.db import FarmDB  # noqa: E402
+from farm_server.db import FarmDB  # noqa: E402
 from network_pkg.outbox import Backoff, FarmClient, Outbox, Uploader  # noqa: E402
 
 

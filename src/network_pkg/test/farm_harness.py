@@ -283,7 +283,7 @@ def chromium_run(url, workdir, extra, timeout=60):
 
 def screenshot(out_path, workdir=None):
     """Run a demo farm (two robots, eight days), serve it and screenshot the page."""
-    from network_pkg.farm_server.db import FarmDB
+    from farm_server.db import FarmDB
     workdir = workdir or tempfile.mkdtemp(prefix='net_shot_')
     db_url = 'sqlite:///' + os.path.join(workdir, 'farm.db')
     db = FarmDB(db_url)

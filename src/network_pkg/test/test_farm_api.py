@@ -10,7 +10,7 @@ import pytest
 import requests
 
 import farm_harness
-from network_pkg.farm_server.db import FarmDB
+from farm_server.db import FarmDB
 from network_pkg.outbox import Outbox
 
 MAX_ROWS = 50
@@ -257,7 +257,7 @@ def test_uploader_halves_its_batch_to_the_server_limit(farm, tmp_path):
 def test_new_tokens_never_look_like_a_command_line_option():
     # a token starting with '-' broke `outbox_cli --token TOKEN` (argparse took it for an
     # option); one token in 64 of secrets.token_urlsafe starts so
-    from network_pkg.farm_server.db import new_token
+    from farm_server.db import new_token
     tokens = [new_token() for _ in range(2000)]
     assert not [t for t in tokens if t.startswith('-')]
     assert len(set(tokens)) == len(tokens) and all(len(t) >= 43 for t in tokens)

@@ -8,7 +8,7 @@ import pytest
 import requests
 
 import farm_harness
-from network_pkg.farm_server.db import FarmDB
+from farm_server.db import FarmDB
 
 pytestmark = pytest.mark.skipif(farm_harness.chromium() is None,
                                 reason='chromium not installed (apt-get install chromium)')
@@ -67,7 +67,7 @@ def test_page_screenshot(demo, tmp_path):
 def test_page_reports_a_failing_api(tmp_path):
     """The page says so when the overview cannot be loaded (here: no server behind it)."""
     html = os.path.join(str(tmp_path), 'page.html')
-    from network_pkg.farm_server.page import PAGE_HTML
+    from farm_server.page import PAGE_HTML
     with open(html, 'w') as f:
         f.write(PAGE_HTML)
     result = farm_harness.chromium_run('file://' + html, str(tmp_path),

@@ -10,7 +10,7 @@ import pytest
 
 import farm_harness
 from database_pkg.store import Store
-from network_pkg.farm_server.db import FarmDB
+from farm_server.db import FarmDB
 from network_pkg.outbox import WIRE_COLUMNS
 
 _names = itertools.count()

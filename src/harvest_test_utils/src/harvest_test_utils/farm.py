@@ -1,7 +1,7 @@
-"""network_pkg's farm server (``python -m network_pkg.farm_server serve``) as a child process on
+"""The farm server (package farm_server, ``python -m farm_server serve``) as a child process on
 a free loopback port, for network_pkg's tests and harvest_bringup's mission_plan rostest.
 
-network_pkg must be importable (the workspace sourced: devel/setup.bash); the caller's package
+farm_server must be importable (the workspace sourced: devel/setup.bash); the caller's package
 declares it. No ROS.
 """
 
@@ -38,7 +38,7 @@ class FarmServer(object):
         self.proc = None
 
     def start(self, timeout=90.0):
-        cmd = [sys.executable, '-m', 'network_pkg.farm_server', '--db', self.db_url, 'serve',
+        cmd = [sys.executable, '-m', 'farm_server', '--db', self.db_url, 'serve',
                '--port', str(self.port), '--log-level', 'warning']
         if self.config:
             cmd += ['--config', self.config]

@@ -3,9 +3,8 @@ import datetime
 
 import pytest
 
-import farm_harness  # noqa: F401  (puts the package sources on sys.path)
-from network_pkg.farm_server import fusion
-from network_pkg.farm_server.fusion import DAY, FusionConfig, fuse
+from farm_server import fusion
+from farm_server.fusion import DAY, FusionConfig, fuse
 
 T0 = 1.75e9                      # a calendar time (ROS stamps from a robot on wall time)
 DAY0 = fusion.day_of(T0, FusionConfig())

@@ -18,8 +18,8 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import HTMLResponse, JSONResponse
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
-from network_pkg.farm_server import db as db_mod
-from network_pkg.farm_server import fusion, page, schemas
+from farm_server import db as db_mod
+from farm_server import fusion, page, schemas
 
 __all__ = ['create_app', 'ServerSettings', 'API_VERSION']
 

@@ -1,5 +1,5 @@
-"""Command line of the farm server (``rosrun network_pkg farm_server ...`` or
-``python -m network_pkg.farm_server ...``).
+"""Command line of the farm server (``rosrun farm_server farm_server ...`` or
+``python -m farm_server ...``).
 
     farm_server [--db URL] serve [--host 127.0.0.1] [--port 8420] [--config FILE]
                                  [--ssl-certfile F --ssl-keyfile F] [--log-level info] [--access-log]
@@ -71,7 +71,7 @@ def build_parser():
 
 
 def _open_db(args):
-    from network_pkg.farm_server.db import FarmDB
+    from farm_server.db import FarmDB
     return FarmDB(args.db or os.environ.get('FARM_DB_URL') or None)
 
 
@@ -113,8 +113,8 @@ def main(argv=None):
 
 def _serve(args, db):
     import uvicorn
-    from network_pkg.farm_server.app import ServerSettings, create_app
-    from network_pkg.farm_server.fusion import FusionConfig
+    from farm_server.app import ServerSettings, create_app
+    from farm_server.fusion import FusionConfig
     try:
         config = load_config(args.config)
         settings = ServerSettings(**(config.get('server') or {}))
