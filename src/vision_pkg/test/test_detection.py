@@ -310,3 +310,26 @@ def test_red_fruit_half_hidden_behind_a_red_one_are_both_found(angle, offset):
             assert len(found) == 1, (seed, fruit.centre, truth, dets)
             assert found[0].stage == detection.STAGE_RED, (seed, found)
         assert len(dets) == 2, (seed, dets)
+
+
+def test_calyx_and_stem_across_a_red_fruit_do_not_lower_its_grade():
+    """Seen from the calyx side, a red fruit has a star of dark green sepals in its middle and
+    often its truss stem across it: they are enclosed by the fruit's colour, so they belong to
+    its region, but they are not its skin. Graded with them, a red fruit came out pink."""
+    fruit = scene.Fruit(0.0, 0.02, 0.5, 0.04, 0.95)
+    image, _, _ = scene.render([fruit], backdrop_depth=0.95)
+    (u, v), r = scene.project(fruit.centre), scene.FOCAL * fruit.radius / fruit.centre[2]
+    sepal = (40, 110, 50)        # BGR, dark green
+    for k in range(6):
+        a = k * math.pi / 3.0
+        tip = (int(u + 0.75 * r * math.cos(a)), int(v + 0.75 * r * math.sin(a)))
+        cv2.line(image, (int(u), int(v)), tip, sepal, max(int(0.14 * r), 2))
+    cv2.circle(image, (int(u), int(v)), int(0.22 * r), sepal, -1)
+    cv2.line(image, (int(u - 1.5 * r), int(v - 0.4 * r)), (int(u + 1.5 * r), int(v + 0.2 * r)),
+             (60, 140, 80), max(int(0.08 * r), 2))
+    det = max(TomatoDetector().detect(image), key=lambda d: _match(d, fruit))
+    assert _match(det, fruit) >= 0.5
+    assert det.stage == detection.STAGE_RED, det
+    # the same fruit graded with the green pixels as skin (the old rule) is not red
+    old = TomatoDetector(skin_min_ripeness=0.0).detect(image)
+    assert max(old, key=lambda d: _match(d, fruit)).stage < detection.STAGE_RED

@@ -102,6 +102,7 @@ DEFAULTS = {
     'score_hue': [4.0, 9.0, 14.0, 18.0, 22.0, 26.0, 30.0, 35.0, 41.0],
     'score_values': [1.0, 0.88, 0.7, 0.55, 0.42, 0.3, 0.18, 0.06, 0.0],
     'pale_sat': 130,            # pixels less saturated than this drift towards score 0.5
+    'skin_min_ripeness': 0.25,  # pass 1: pixels graded below this (green) are not skin
 }
 
 
@@ -800,6 +801,11 @@ class TomatoDetector(object):
             bgr_px = small[sy, sx]
             good = (hsv_px[:, 2] > 2 * p['val_min']) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200)) & \
                 (bgr_px.max(axis=1) < 250)
+            if not strict:
+                # a part of ripening colour: its green-graded pixels are not its skin but the
+                # calyx, sepals and stems across it (seen from the calyx side, a star of
+                # them fills the middle of a red fruit and graded it pink)
+                good &= self.pixel_ripeness(hsv_px) >= p['skin_min_ripeness']
             score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good])
             min_fill = p['min_fill_green'] if strict or score < STAGE_THRESHOLDS[0] else \
                 p['min_fill']
