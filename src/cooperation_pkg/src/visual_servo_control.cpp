@@ -21,6 +21,26 @@ bool finite(double v)
 }
 }  // namespace
 
+bool parseServoMode(const std::string &text, ServoMode &mode)
+{
+  if (text == "step")
+  {
+    mode = ServoMode::STEP;
+    return true;
+  }
+  if (text == "continuous")
+  {
+    mode = ServoMode::CONTINUOUS;
+    return true;
+  }
+  return false;
+}
+
+const char *servoModeName(ServoMode mode)
+{
+  return mode == ServoMode::CONTINUOUS ? "continuous" : "step";
+}
+
 PointFeature PointFeature::fromPoint(const vpTranslationVector &p)
 {
   if (!(p[2] > 0.0) || !finite(p[0]) || !finite(p[1]) || !finite(p[2]))
@@ -133,6 +153,23 @@ vpColVector VisualServoControl::dropRotation(const vpColVector &v)
     out[i] = 0.0;
   }
   return out;
+}
+
+ToolStep VisualServoControl::toolStep(const vpColVector &v, double horizon, double max_step)
+{
+  if (!(horizon > 0.0) || !finite(horizon) || !(max_step > 0.0) || !finite(max_step))
+  {
+    throw std::invalid_argument("tool step needs a finite horizon > 0 and max_step > 0");
+  }
+  ToolStep step;
+  step.translation = integrate(dropRotation(v), horizon).getTranslationVector();
+  step.requested = step.translation.frobeniusNorm();
+  if (step.requested > max_step)
+  {
+    step.translation = step.translation * (max_step / step.requested);
+    step.clipped = true;
+  }
+  return step;
 }
 
 }  // namespace cooperation_pkg

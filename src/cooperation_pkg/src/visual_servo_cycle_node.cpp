@@ -47,6 +47,9 @@ void checkSettings(const ServoSettings &s)
   require(s.max_lost > 0, "~max_lost must be > 0");
   require(finite(s.max_step) && s.max_step > 0.0, "~max_step must be > 0 [m]");
   require(finite(s.max_gain_dt) && s.max_gain_dt > 0.0, "~max_gain_dt must be > 0");
+  require(finite(s.continuous_gain) && s.continuous_gain > 0.0, "~continuous_gain must be > 0 [1/s]");
+  require(finite(s.horizon) && s.horizon > 0.0, "~horizon must be > 0 [s]");
+  require(s.continuous_max_iterations > 0, "~continuous_max_iterations must be > 0");
   require(s.adaptive_gain_at_infinity == 0.0 ||
               (s.adaptive_gain_at_infinity > 0.0 && s.adaptive_gain_at_infinity < s.gain && s.adaptive_slope_at_zero > 0.0),
           "adaptive gain needs 0 < ~adaptive_gain_at_infinity < ~gain and ~adaptive_slope_at_zero > 0");
@@ -96,6 +99,12 @@ VisualServoCycleNode::VisualServoCycleNode(ros::NodeHandle nh, ros::NodeHandle p
   pnh_.param("max_lost", s.max_lost, s.max_lost);
   pnh_.param("max_step", s.max_step, s.max_step);
   pnh_.param("max_gain_dt", s.max_gain_dt, s.max_gain_dt);
+  pnh_.param("continuous_gain", s.continuous_gain, s.continuous_gain);
+  pnh_.param("horizon", s.horizon, s.horizon);
+  pnh_.param("continuous_max_iterations", s.continuous_max_iterations, s.continuous_max_iterations);
+  std::string mode;
+  pnh_.param<std::string>("mode", mode, "step");
+  require(parseServoMode(mode, s.mode), "~mode must be 'step' or 'continuous'");
   std::string dof_mode;
   pnh_.param<std::string>("dof_mode", dof_mode, "translation");
   require(dof_mode == "translation" || dof_mode == "full", "~dof_mode must be 'translation' or 'full'");
@@ -112,8 +121,9 @@ VisualServoCycleNode::VisualServoCycleNode(ros::NodeHandle nh, ros::NodeHandle p
   reconfigure_server_->setCallback(
       boost::bind(&VisualServoCycleNode::reconfigure, this, boost::placeholders::_1, boost::placeholders::_2));
   server_.start();
-  ROS_INFO_NAMED(LOG, "visual_servo: ready (camera %s, tool %s, base %s, %s law)", camera_frame_.c_str(),
-                 tool_frame_.c_str(), base_frame_.c_str(), s.translation_only ? "translation-only" : "6-DOF");
+  ROS_INFO_NAMED(LOG, "visual_servo: ready (camera %s, tool %s, base %s, %s law, %s mode)", camera_frame_.c_str(),
+                 tool_frame_.c_str(), base_frame_.c_str(), s.translation_only ? "translation-only" : "6-DOF",
+                 servoModeName(settings_.mode));
 }
 
 VisualServoCycleNode::~VisualServoCycleNode()
@@ -131,13 +141,19 @@ void VisualServoCycleNode::reconfigure(VisualServoConfig &config, uint32_t /*lev
   s.max_iterations = config.max_iterations;
   s.peduncle_gap = config.peduncle_gap;
   s.max_step = config.max_step;
+  s.continuous_gain = config.continuous_gain;
+  s.horizon = config.horizon;
+  s.continuous_max_iterations = config.continuous_max_iterations;
   try
   {
+    require(parseServoMode(config.mode, s.mode), "mode must be 'step' or 'continuous'");
     checkSettings(s);
     settings_ = s;
-    ROS_INFO_NAMED(LOG, "visual_servo: settings for the next goal: gain %.3f, dt %.3f s, threshold %.4f m, "
-                        "max_iterations %d, peduncle_gap %.3f m, max_step %.3f m",
-                   s.gain, s.dt, s.threshold, s.max_iterations, s.peduncle_gap, s.max_step);
+    ROS_INFO_NAMED(LOG, "visual_servo: settings for the next goal: %s mode, gain %.3f, dt %.3f s, threshold %.4f m, "
+                        "max_iterations %d, peduncle_gap %.3f m, max_step %.3f m, continuous_gain %.3f, "
+                        "horizon %.3f s, continuous_max_iterations %d",
+                   servoModeName(s.mode), s.gain, s.dt, s.threshold, s.max_iterations, s.peduncle_gap, s.max_step,
+                   s.continuous_gain, s.horizon, s.continuous_max_iterations);
   }
   catch (const std::invalid_argument &e)
   {
@@ -188,6 +204,14 @@ bool VisualServoCycleNode::makeSettings(const harvest_msgs::VisualServoGoal &goa
     std::lock_guard<std::mutex> lock(settings_mutex_);
     s = settings_;
   }
+  if (s.mode == ServoMode::CONTINUOUS)
+  {
+    // From here on gain, dt and max_iterations are those of the mode (the goal's overrides apply to them).
+    s.gain = s.continuous_gain;
+    s.dt = s.horizon;
+    s.max_iterations = s.continuous_max_iterations;
+    s.adaptive_gain_at_infinity = 0.0;  // constant gain in continuous mode
+  }
   const geometry_msgs::Point &p = goal.target.point;
   if (!finite(p.x) || !finite(p.y) || !finite(p.z))
   {
@@ -235,8 +259,8 @@ bool VisualServoCycleNode::makeSettings(const harvest_msgs::VisualServoGoal &goa
   if (s.gain * s.dt > s.max_gain_dt)
   {
     char buf[200];
-    std::snprintf(buf, sizeof(buf), "invalid goal: gain * dt = %.2f exceeds %.2f (the loop overshoots and diverges)",
-                  s.gain * s.dt, s.max_gain_dt);
+    std::snprintf(buf, sizeof(buf), "invalid goal: gain * %s = %.2f exceeds %.2f (the loop overshoots and diverges)",
+                  s.mode == ServoMode::CONTINUOUS ? "horizon" : "dt", s.gain * s.dt, s.max_gain_dt);
     why = buf;
     return false;
   }
@@ -293,6 +317,13 @@ VisualServoCycleNode::Step VisualServoCycleNode::runSubGoal(Client &client, cons
                                                             const char *name, std::string &why)
 {
   client.sendGoal(goal);
+  return waitSubGoal(client, timeout, name, why);
+}
+
+template <class Client>
+VisualServoCycleNode::Step VisualServoCycleNode::waitSubGoal(Client &client, double timeout, const char *name,
+                                                             std::string &why)
+{
   const ros::Time deadline = ros::Time::now() + ros::Duration(timeout);
   while (!client.waitForResult(ros::Duration(0.05)))
   {
@@ -403,6 +434,18 @@ VisualServoCycleNode::Step VisualServoCycleNode::move(const trajectory_msgs::Joi
   {
     return st;
   }
+  return moveResult(why);
+}
+
+VisualServoCycleNode::Step VisualServoCycleNode::moveResult(std::string &why)
+{
+  const actionlib::SimpleClientGoalState state = move_client_.getState();
+  if (state != actionlib::SimpleClientGoalState::SUCCEEDED)
+  {
+    why = std::string(names::MOVE_ROBOT_ACTION) + " ended " + state.toString() +
+          (state.getText().empty() ? "" : ": " + state.getText());
+    return Step::FAILED;
+  }
   const harvest_msgs::MoveRobotResultConstPtr result = move_client_.getResult();
   if (!result || result->succeed <= 0)
   {
@@ -410,6 +453,39 @@ VisualServoCycleNode::Step VisualServoCycleNode::move(const trajectory_msgs::Joi
     return Step::FAILED;
   }
   return Step::OK;
+}
+
+VisualServoCycleNode::Step VisualServoCycleNode::sendMove(const trajectory_msgs::JointTrajectoryPoint &joints,
+                                                          bool &running, std::string &why)
+{
+  // The previous command may have ended on its own: a failure (halt, fault, timeout) ends the servo.
+  if (running && move_client_.getState().isDone() && moveResult(why) != Step::OK)
+  {
+    running = false;
+    return Step::FAILED;
+  }
+  harvest_msgs::MoveRobotGoal goal;
+  goal.target_joint = joints;
+  goal.arm = true;
+  // A new goal replaces the running one: move_robot (SimpleActionServer) preempts it and retargets the
+  // moving axes from where they are, without halting them; this client follows only the new goal.
+  move_client_.sendGoal(goal);
+  running = true;
+  return Step::OK;
+}
+
+void VisualServoCycleNode::stopMove(bool &running)
+{
+  if (!running)
+  {
+    return;
+  }
+  running = false;
+  if (!move_client_.getState().isDone())
+  {
+    move_client_.cancelGoal();  // move_robot halts the arm's axes
+    move_client_.waitForResult(ros::Duration(2.0));
+  }
 }
 
 void VisualServoCycleNode::finish(bool success, int iterations, double error, const std::string &message,
@@ -451,10 +527,11 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     finish(false, 0, nan, why, last_cmd);
     return;
   }
-  ROS_INFO_NAMED(LOG, "visual_servo: goal: target (%.3f, %.3f, %.3f) in %s, radius %.3f m, gain %.2f, dt %.2f s, "
-                      "threshold %.1f mm, max %d iterations",
+  ROS_INFO_NAMED(LOG, "visual_servo: goal: target (%.3f, %.3f, %.3f) in %s, radius %.3f m, %s mode, gain %.2f, "
+                      "%s %.2f s, threshold %.1f mm, max %d iterations",
                  goal->target.point.x, goal->target.point.y, goal->target.point.z,
-                 goal->target.header.frame_id.c_str(), radius, s.gain, s.dt, s.threshold * 1e3, s.max_iterations);
+                 goal->target.header.frame_id.c_str(), radius, servoModeName(s.mode), s.gain,
+                 s.mode == ServoMode::CONTINUOUS ? "horizon" : "dt", s.dt, s.threshold * 1e3, s.max_iterations);
   if (!waitForServers(why))
   {
     finish(false, 0, nan, why, last_cmd);
@@ -499,13 +576,21 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
   ROS_INFO_NAMED(LOG, "visual_servo: desired feature x* %.4f, y* %.4f, Z* %.3f m", law.desired().x, law.desired().y,
                  law.desired().Z);
 
+  const bool continuous = s.mode == ServoMode::CONTINUOUS;
+  bool move_running = false;  // continuous mode: a move_robot goal was sent and is not waited for
   int moves = 0;
   int lost = 0;
   double error = nan;
+  // every failure in the loop halts a move still running (continuous mode) before the goal ends
+  auto fail = [&](const std::string &message) {
+    stopMove(move_running);
+    finish(false, moves, error, message, last_cmd);
+  };
   while (true)
   {
     if (server_.isPreemptRequested() || !ros::ok())
     {
+      stopMove(move_running);
       harvest_msgs::VisualServoResult result;
       result.iterations = moves;
       result.final_error = error;
@@ -525,7 +610,7 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     }
     if (st == Step::FAILED)
     {
-      finish(false, moves, error, "image processing failed: " + why, last_cmd);
+      fail("image processing failed: " + why);
       return;
     }
     if (st == Step::LOST)
@@ -534,12 +619,10 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
       ROS_WARN_THROTTLE_NAMED(2.0, LOG, "visual_servo: target lost (%d/%d): %s", lost, s.max_lost, why.c_str());
       if (lost >= s.max_lost)
       {
-        finish(false, moves, error,
-               "target lost: not found in " + std::to_string(lost) + " consecutive hand camera images (" + why + ")",
-               last_cmd);
+        fail("target lost: not found in " + std::to_string(lost) + " consecutive hand camera images (" + why + ")");
         return;
       }
-      continue;  // nothing moves while the target is not seen
+      continue;  // no new command while the target is not seen (continuous: the last one ends)
     }
     if (lost > 0)
     {
@@ -552,7 +635,7 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     if (!lookup(camera_frame_, base_frame_, feature.header.stamp, cam_from_base_msg, why) ||
         !lookup(base_frame_, tool_frame_, feature.header.stamp, base_from_tool_msg, why))
     {
-      finish(false, moves, error, why, last_cmd);
+      fail(why);
       return;
     }
     tf2::Transform T_cam_base, T_base_tool_now;
@@ -561,8 +644,7 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     const tf2::Vector3 target_cam = T_cam_base * target_base;
     if (!(target_cam.z() > 0.0))
     {
-      finish(false, moves, error, "the target point is behind the hand camera (check the target and the tf tree)",
-             last_cmd);
+      fail("the target point is behind the hand camera (check the target and the tf tree)");
       return;
     }
     const PointFeature current(feature.x, feature.y, target_cam.z());
@@ -575,6 +657,25 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     if (error < s.threshold)
     {
       server_.publishFeedback(fb);
+      if (move_running)
+      {
+        // continuous: the last command (a fraction of this error away) ends before the goal does
+        move_running = false;
+        st = waitSubGoal(move_client_, move_timeout_, names::MOVE_ROBOT_ACTION, why);
+        if (st == Step::PREEMPTED)
+        {
+          continue;
+        }
+        if (st == Step::OK)
+        {
+          st = moveResult(why);
+        }
+        if (st != Step::OK)
+        {
+          fail(why);
+          return;
+        }
+      }
       char buf[160];
       std::snprintf(buf, sizeof(buf), "converged in %d iterations, error %.2f mm < %.2f mm", moves, error * 1e3,
                     s.threshold * 1e3);
@@ -587,7 +688,7 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
       char buf[160];
       std::snprintf(buf, sizeof(buf), "not converged after %d iterations: error %.2f mm >= %.2f mm", moves,
                     error * 1e3, s.threshold * 1e3);
-      finish(false, moves, error, buf, last_cmd);
+      fail(buf);
       return;
     }
 
@@ -599,20 +700,19 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     }
     catch (const std::exception &e)
     {
-      finish(false, moves, error, std::string("control law failed: ") + e.what(), last_cmd);
+      fail(std::string("control law failed: ") + e.what());
       return;
     }
     fb.iteration = moves + 1;
     fb.camera_velocity = toTwist(v);
     server_.publishFeedback(fb);
-    const vpColVector v_t = VisualServoControl::dropRotation(v);
-    vpTranslationVector step = VisualServoControl::integrate(v_t, s.dt).getTranslationVector();
-    const double step_norm = step.frobeniusNorm();
-    if (step_norm > s.max_step)
+    // translation held for dt (step) or the horizon (continuous), clipped to max_step
+    const ToolStep tool_step = VisualServoControl::toolStep(v, s.dt, s.max_step);
+    const vpTranslationVector &step = tool_step.translation;
+    if (tool_step.clipped)
     {
-      ROS_WARN_THROTTLE_NAMED(2.0, LOG, "visual_servo: step %.3f m clipped to ~max_step %.3f m", step_norm,
+      ROS_WARN_THROTTLE_NAMED(2.0, LOG, "visual_servo: step %.3f m clipped to ~max_step %.3f m", tool_step.requested,
                               s.max_step);
-      step = step * (s.max_step / step_norm);
     }
     ROS_DEBUG_NAMED(LOG, "visual_servo: iteration %d error %.2f mm v (%.4f %.4f %.4f | %.4f %.4f %.4f)", moves + 1,
                     error * 1e3, v[0], v[1], v[2], v[3], v[4], v[5]);
@@ -627,22 +727,22 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     tool_goal.point.y = tool_next.y();
     tool_goal.point.z = tool_next.z();
 
-    // 6. joint goal of the left arm, then move and wait
+    // 6. joint goal of the left arm, then move and wait (step) or send it and look again (continuous)
     trajectory_msgs::JointTrajectoryPoint joints;
     st = solveIk(tool_goal, joints, why);
     if (st == Step::FAILED)
     {
-      finish(false, moves, error, "kinematics: " + why, last_cmd);
+      fail("kinematics: " + why);
       return;
     }
     if (st == Step::PREEMPTED)
     {
       continue;
     }
-    st = move(joints, why);
+    st = continuous ? sendMove(joints, move_running, why) : move(joints, why);
     if (st == Step::FAILED)
     {
-      finish(false, moves, error, why, last_cmd);
+      fail(why);
       return;
     }
     if (st == Step::PREEMPTED)

@@ -20,6 +20,8 @@
 #ifndef COOPERATION_PKG_VISUAL_SERVO_CONTROL_H
 #define COOPERATION_PKG_VISUAL_SERVO_CONTROL_H
 
+#include <string>
+
 #include <visp3/core/vpColVector.h>
 #include <visp3/core/vpHomogeneousMatrix.h>
 #include <visp3/core/vpTranslationVector.h>
@@ -43,6 +45,31 @@ struct PointFeature
   static PointFeature fromPoint(const vpTranslationVector &p);
   /** True when x, y, Z are finite and Z > 0. */
   bool valid() const;
+};
+
+/**
+ * How the visual_servo node drives the arm with the law's velocity v (README "Modes"):
+ * STEP (the paper's): the tool moves by v held for dt (1 s) and the node waits for the move to end
+ * before it looks again; CONTINUOUS: at every new image the tool is sent towards where v leads over a
+ * short horizon (about one camera period), replacing the running move without waiting for it.
+ */
+enum class ServoMode
+{
+  STEP = 0,
+  CONTINUOUS = 1
+};
+
+/** "step" or "continuous" -> mode; false (mode unchanged) for any other text. */
+bool parseServoMode(const std::string &text, ServoMode &mode);
+/** "step" or "continuous". */
+const char *servoModeName(ServoMode mode);
+
+/** The tool displacement of one control command (camera frame, translation only). */
+struct ToolStep
+{
+  vpTranslationVector translation;  ///< [m]
+  double requested = 0.0;           ///< length before clipping [m]
+  bool clipped = false;             ///< longer than max_step, scaled down to it
 };
 
 class VisualServoControl
@@ -92,6 +119,13 @@ public:
   static vpHomogeneousMatrix integrate(const vpColVector &v, double dt);
   /** v with the rotational components set to zero. */
   static vpColVector dropRotation(const vpColVector &v);
+  /**
+   * The command of either mode: the translation of the camera (and of the rigidly attached tool) when
+   * the translational part of v is held for `horizon` seconds (dt in STEP mode, the short horizon in
+   * CONTINUOUS mode), scaled down to `max_step` [m] when longer. Throws std::invalid_argument for
+   * horizon <= 0 or max_step <= 0.
+   */
+  static ToolStep toolStep(const vpColVector &v, double horizon, double max_step);
 
 private:
   void configureTask();

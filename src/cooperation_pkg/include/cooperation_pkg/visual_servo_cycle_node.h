@@ -45,6 +45,10 @@ struct ServoSettings
   double max_step = 0.30;             ///< largest tool displacement per iteration [m]
   double max_gain_dt = 0.8;           ///< goals with gain * dt above this are rejected (divergence)
   bool translation_only = true;       ///< solve the law for translations only (SCARA)
+  ServoMode mode = ServoMode::STEP;   ///< step (the paper's, wait for each move) or continuous
+  double continuous_gain = 3.5;       ///< lambda in continuous mode [1/s]
+  double horizon = 0.2;               ///< continuous mode: the velocity is held this long per command [s]
+  int continuous_max_iterations = 150;  ///< continuous mode: commands before giving up
 };
 
 class VisualServoCycleNode
@@ -83,6 +87,15 @@ private:
   /** Sends a sub-goal and waits for it, cancelling it on preempt or timeout. */
   template <class Client, class Goal>
   Step runSubGoal(Client &client, const Goal &goal, double timeout, const char *name, std::string &why);
+  /** Waits for the client's current goal (cancelling it on preempt or timeout). */
+  template <class Client>
+  Step waitSubGoal(Client &client, double timeout, const char *name, std::string &why);
+  /** Checks the result of a finished move_robot goal. */
+  Step moveResult(std::string &why);
+  /** Continuous mode: sends the joint goal without waiting; it replaces the running one. */
+  Step sendMove(const trajectory_msgs::JointTrajectoryPoint &joints, bool &running, std::string &why);
+  /** Cancels a running move_robot goal (move_robot halts the arm) and waits briefly for its end. */
+  void stopMove(bool &running);
   bool lookup(const std::string &target, const std::string &source, const ros::Time &stamp,
               geometry_msgs::TransformStamped &out, std::string &why) const;
   trajectory_msgs::JointTrajectoryPoint currentLeftJoints() const;
