@@ -10,7 +10,8 @@ import yaml
 from sim_fixtures import GEOM, SCENARIOS, scn
 
 NAMED = ['default', 'three_targets', 'dense_cluster', 'low_light', 'empty_point',
-         'unripe_only', 'out_of_reach', 'long_row', 'plant_factory_led', 'greenhouse_daylight']
+         'unripe_only', 'out_of_reach', 'long_row', 'plant_factory_led', 'greenhouse_daylight',
+         'waist_reach']
 
 
 def load(name):
@@ -27,9 +28,14 @@ def test_named_scenario_loads_and_is_consistent(name):
         assert 0.0 <= f.ripeness <= 1.0
         assert np.allclose(f.peduncle, f.position + [0, 0, f.radius + scn.PEDUNCLE_GAP])
         if f.picking_point >= 0:      # in view: the box of the issue, in front of the robot
-            assert scn.VIEW_X[0] <= f.position[0] <= scn.VIEW_X[1]
+            # (fruit only the waist reaches: the wider box beside the fixed workspace)
+            waist_only = f.reachable and not scn.reachability(
+                GEOM, f.position, f.radius, pts[f.picking_point], f.peduncle, waist=False)[0]
+            view_x = scn.WAIST_VIEW_X if waist_only else scn.VIEW_X
+            half_y = scn.WAIST_VIEW_HALF_Y if waist_only else scn.VIEW_HALF_Y
+            assert view_x[0] <= f.position[0] <= view_x[1]
             assert scn.VIEW_Z[0] <= f.position[2] <= scn.VIEW_Z[1]
-            assert abs(f.position[1] - pts[f.picking_point]) <= scn.VIEW_HALF_Y
+            assert abs(f.position[1] - pts[f.picking_point]) <= half_y
             eyes = scn.stereo_eyes(GEOM, pts[f.picking_point])
             from harvest_sim import camera_model
             assert scn.fully_in_view(camera_model.stereo_camera(), eyes, f.position, f.radius)
@@ -53,6 +59,17 @@ def test_named_scenarios_have_their_character():
     assert all(f.ripeness <= 0.55 for f in s.fruits)
     s = load('out_of_reach')
     assert s.fruits and all(f.ripe and not f.reachable for f in s.fruits)
+    s = load('waist_reach')         # ripe fruit beside the fixed workspace, on both sides
+    pts = s.track.picking_points
+    turns = []
+    for f in s.fruits:
+        assert f.ripe and f.reachable
+        if not scn.reachability(GEOM, f.position, f.radius, pts[f.picking_point], f.peduncle,
+                                waist=False)[0]:
+            base = np.array([0.0, pts[f.picking_point], 0.0])
+            turns.append(GEOM.inverse_waist('right', f.position - base, f.radius,
+                                            other_xyz=f.peduncle - base).waist)
+    assert len(turns) >= 4 and min(turns) < 0.0 < max(turns)
     s = load('long_row')
     assert len(s.track.picking_points) >= 20
     s = load('low_light')

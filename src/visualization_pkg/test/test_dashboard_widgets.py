@@ -325,8 +325,24 @@ def test_waist_jog_row_gate_and_events(app):
     assert not op.move_cart(1) and events.sent[-1][:2] == ('move_cart', 'refused')
     op._on_root_status(status('/SM_ROOT', ['DO_STOP']))
     op.positions['waist_joint'] = 0.5
-    assert not op.jog('waist_joint', 0.1) and 'no waist command' in op.last_message
-    assert events.sent[-1][0] == 'jog' and '0.600' in events.sent[-1][2]
+    op.jog('waist_joint', 0.1)                       # no ROS here: refused by _send, as arm jogs
+    assert 'not connected to ROS' in op.last_message and events.sent[-1][:2] == ('jog', 'refused')
+    # paused: the waist jog goes to move_robot as a waist-only goal, clamped, and is recorded
+    sent = []
+    op.clients = {'move_robot': object()}
+    op.run_in_background = lambda tag, fn, *args: sent.append((tag, args))
+    assert op.jog('waist_joint', 0.1)
+    (tag, (client, goal, what, action)), = sent
+    assert tag == 'action' and client is op.clients['move_robot'] and action == 'jog'
+    assert goal.move_waist and goal.waist == pytest.approx(0.6) and list(goal.target_joint.positions) == []
+    assert events.sent[-1][:2] == ('jog', 'accepted') and '0.600' in events.sent[-1][2]
+    op.busy = ''
+    op.positions['waist_joint'] = 3.1
+    assert op.jog('waist_joint', 0.2) and sent[-1][1][1].waist == pytest.approx(op.limits['waist_joint'][1])
+    assert 'clamped' in events.sent[-1][2]
+    op.busy = ''
+    op._on_root_status(status('/SM_ROOT', ['RUN']))
+    assert not op.jog('waist_joint', 0.1) and len(sent) == 2 and events.sent[-1][:2] == ('jog', 'refused')
 
 
 def test_operator_events_do_not_switch_the_mission_panel(app):

@@ -21,9 +21,12 @@ z up) holds:
 Ripeness is 0..1 and rendered green -> turning -> pink -> red; ground truth "ripe" is
 ripeness >= RIPE_THRESHOLD. The peduncle (where the shear cuts) is the stem point above the fruit:
 centre + (0, 0, radius + PEDUNCLE_GAP). `reachable` is computed with motion_pkg.kinematics at the
-fruit's picking point (cart at that point, waist 0): the right suction tcp must reach the fruit
-surface facing it (target the centre with standoff = radius) and the left shear tcp the peduncle
-(with the right arm at its suction pose for the clearance check).
+fruit's picking point (cart at that point, waist at 0 or turned by the smallest angle that serves
+both arms, RobotGeometry.inverse_waist): the right suction tcp must reach the fruit surface facing
+it (target the centre with standoff = radius) and the left shear tcp the peduncle (with the right
+arm at its suction pose for the clearance check). The generator's `waist_fraction` places fruit
+beside the arms' fixed workspace (WAIST_VIEW_X, WAIST_VIEW_HALF_Y, still fully in both stereo
+images at waist 0) that only a turn of the waist brings in reach.
 
 load_scenario() raises ScenarioError naming the file, the field path and the problem.
 """
@@ -53,6 +56,11 @@ PEDUNCLE_GAP = 0.01
 VIEW_X = (0.35, 0.65)
 VIEW_Z = (0.82, 1.08)
 VIEW_HALF_Y = 0.25
+#: where the generator's waist-only fruit (knob waist_fraction) sit: map x and |y - point|
+WAIST_VIEW_X = (0.35, 0.70)
+WAIST_VIEW_HALF_Y = 0.40
+#: `want_reach` of the generator for a fruit only the waist brings in reach
+WAIST_ONLY = 'waist'
 TRACK_RANGE = (0.0, 30.0)
 STEM_KINDS = ('main', 'truss')
 
@@ -448,16 +456,25 @@ def parse_look(r, value, path):
 
 # ---------------------------------------------------------------------------- kinematics
 
-def reachability(geom, position, radius, cart_y, peduncle=None):
-    """(reachable, reason) of a fruit with the cart at cart_y and the waist at 0.
+def reachability(geom, position, radius, cart_y, peduncle=None, waist=True):
+    """(reachable, reason) of a fruit with the cart at cart_y.
 
     Right arm: suction tcp on the fruit surface facing it (target the centre, standoff radius).
     Left arm: shear tcp on the peduncle, with the right arm at that suction pose.
+    waist True: at waist 0 or, if not there, at the smallest waist rotation that serves both
+    arms (the robot's kinematics action, RobotGeometry.inverse_waist); False: at waist 0 only.
     """
     base = np.array([0.0, cart_y, 0.0])
     c = np.asarray(position, dtype=float) - base
     ped = (default_peduncle(position, radius) if peduncle is None else
            np.asarray(peduncle, dtype=float)) - base
+    if waist:
+        sol = geom.inverse_waist('right', c, standoff=radius, other_xyz=ped, other_standoff=0.0)
+        if not sol.ik.reachable:
+            return False, 'suction: ' + sol.ik.reason
+        if not sol.other.reachable:
+            return False, 'shear: ' + sol.other.reason
+        return True, ''
     right = geom.inverse('right', c, standoff=radius)
     if not right.reachable:
         return False, 'suction: ' + right.reason
@@ -517,6 +534,7 @@ DEFAULT_KNOBS = OrderedDict([
     ('occlusion', 0.2),             # chance that a leaf hangs partly in front of a fruit
     ('leaves_per_view', 6),         # background leaves per picking point
     ('unreachable_fraction', 0.15),  # chance that a fruit is placed out of the arms' reach
+    ('waist_fraction', 0.0),        # chance that a fruit is placed where only a turn of the waist reaches it
     ('intensity', 1.0),             # light intensity (1 = bright greenhouse day)
     ('ambient', 0.35),
     ('light_colour', [1.0, 0.98, 0.92]),
@@ -559,6 +577,11 @@ PRESETS = OrderedDict([
     ('unripe_only', dict(seed=13, picking_points=2, fruit_per_view=[3, 4], ripe_fraction=0.0,
                          unreachable_fraction=0.0,
                          description='Only unripe fruit (ripeness < 0.55): nothing to pick.')),
+    ('waist_reach', dict(seed=36, picking_points=2, fruit_per_view=[3, 3], ripe_per_view=3,
+                         waist_fraction=0.67, unreachable_fraction=0.0, occlusion=0.0,
+                         cluster_density=0.0, ripe_range=[0.85, 1.0],
+                         description='Ripe fruit beside the arms\' fixed workspace, diagonally '
+                                     'in front: only a turn of the waist brings them in reach.')),
     ('out_of_reach', dict(seed=17, picking_points=2, fruit_per_view=[2, 3], ripe_fraction=1.0,
                           unreachable_fraction=1.0,
                           description='Ripe fruit in view but beyond the arms\' reach.')),
@@ -696,6 +719,8 @@ class _Generator(object):
             for j in range(size):
                 ripe = ripe_flags[placed + j]
                 want_reach = bool(rng.random() >= k['unreachable_fraction'])
+                if k['waist_fraction'] > 0.0 and rng.random() < k['waist_fraction']:
+                    want_reach = WAIST_ONLY
                 radius = round(float(rng.uniform(*SIZE_CLASSES[size_class])), 4)
                 # cherry trusses are long and open: their fruit hang further apart
                 pos = self._place(y, eyes, radius, members,
@@ -720,20 +745,24 @@ class _Generator(object):
         return size
 
     def _place(self, y, eyes, radius, members, gap, want_reach):
+        """A free position in view; want_reach True / False: reachable or not at waist 0,
+        WAIST_ONLY: beside the fixed workspace, reachable only with the waist turned."""
         rng = self.rng
         best = None
+        waist_only = want_reach == WAIST_ONLY
+        view_x, half_y = (WAIST_VIEW_X, WAIST_VIEW_HALF_Y) if waist_only else (VIEW_X, VIEW_HALF_Y)
         for attempt in range(600):
-            if members and attempt < 400:
+            if members and attempt < 400 and not waist_only:
                 a = members[int(rng.integers(len(members)))]
                 d = _unit([rng.uniform(-0.4, 0.4), rng.uniform(-1, 1), rng.uniform(-1, 0.6)])
                 p = a.position + d * (a.radius + radius + gap * rng.uniform(0.3, 1.2))
             else:
-                p = np.array([rng.uniform(VIEW_X[0] + radius, VIEW_X[1] - radius),
-                              y + rng.uniform(-VIEW_HALF_Y, VIEW_HALF_Y),
+                p = np.array([rng.uniform(view_x[0] + radius, view_x[1] - radius),
+                              y + rng.uniform(-half_y, half_y),
                               rng.uniform(*VIEW_Z)])
             p = np.round(p, 4)
-            if not (VIEW_X[0] <= p[0] <= VIEW_X[1] and VIEW_Z[0] <= p[2] <= VIEW_Z[1] and
-                    abs(p[1] - y) <= VIEW_HALF_Y):
+            if not (view_x[0] <= p[0] <= view_x[1] and VIEW_Z[0] <= p[2] <= VIEW_Z[1] and
+                    abs(p[1] - y) <= half_y):
                 continue
             if any(np.linalg.norm(p - f.position) < f.radius + radius + 0.003
                    for f in self.fruits + members):
@@ -745,7 +774,12 @@ class _Generator(object):
                 continue
             if best is None:
                 best = p
-            if reachability(self.geom, p, radius, y)[0] == want_reach or attempt >= 500:
+            if waist_only:
+                ok = not reachability(self.geom, p, radius, y, waist=False)[0] and \
+                    reachability(self.geom, p, radius, y)[0]
+            else:
+                ok = reachability(self.geom, p, radius, y, waist=False)[0] == want_reach
+            if ok or attempt >= 500:
                 return p
         if best is None:
             raise RuntimeError('cannot place a fruit at picking point y=%.2f (view full?)' % y)

@@ -36,6 +36,16 @@ is on the target.
 Home pose (used for the other arm's clearance when its joints are unknown): lift 0, boom turned
 outward to point along waist +y (left) / -y (right), forearm folded back by 135 degrees, which
 parks the tool behind the arm base, out of the workspace in front of the robot (HOME_JOINTS).
+
+Waist (RobotGeometry.inverse_waist): a target out of the arm's reach at the current waist angle
+may come into it when the waist turns (both arms ride on the waist). The search tries the current
+angle first (then the answer is exactly inverse()'s), then angles ever further from it on a grid of
+WAIST_STEP within the waist limits; the first angle whose neighbours WAIST_MARGIN to either side are
+feasible too wins, so the smallest rotation is taken and the drive's position tolerance cannot put
+the target back out of reach. With a second target for the other arm (the cutting hand's peduncle
+when the suction arm is solved) an angle counts only when the other arm reaches that target too,
+with this arm at its solution (the clearance check of both arms stays valid: the arms turn together,
+so their relative pose does not depend on the waist).
 """
 
 import math
@@ -60,6 +70,10 @@ OPTICAL_RPY = (-math.pi / 2.0, 0.0, -math.pi / 2.0)
 #: two candidates closer than this (rad) are the same solution (stretched arm)
 _SAME_SOLUTION_TOL = 1e-9
 
+#: waist search (inverse_waist): grid step and margin kept to the edge of the feasible range (rad)
+WAIST_STEP = math.radians(1.0)
+WAIST_MARGIN = math.radians(2.0)
+
 IKResult = namedtuple('IKResult', 'reachable joints branch reason candidates')
 IKResult.__doc__ = """Result of RobotGeometry.inverse.
 
@@ -69,6 +83,13 @@ or ''; reason: '' or why unreachable; candidates: list of IKCandidate checked.""
 IKCandidate = namedtuple('IKCandidate', 'branch joints feasible reason clearance')
 IKCandidate.__doc__ = """One IK branch: joints (lift, boom, forearm), feasible bool, reason text,
 clearance (m) to the other arm's forearm+tool segment (nan if not computed)."""
+
+WaistSolution = namedtuple('WaistSolution', 'ik waist moved other')
+WaistSolution.__doc__ = """Result of RobotGeometry.inverse_waist.
+
+ik: IKResult of this arm at `waist` (the current angle when nothing reaches); waist: the waist
+angle (rad) the joints are for; moved: True when it differs from the current angle; other:
+IKResult of the other arm at its target (None when no other target was given)."""
 
 JointDef = namedtuple('JointDef', 'name type parent child xyz rpy axis lower upper velocity')
 JointDef.__doc__ = """A URDF joint: type 'fixed'/'prismatic'/'revolute', origin xyz/rpy, axis,
@@ -390,3 +411,107 @@ class RobotGeometry(object):
             best = min(feasible, key=lambda c: sum(abs(a - b) for a, b in zip(c.joints, cur)))
         return IKResult(True, best.joints, best.branch, '', candidates)
 
+    # ------------------------------------------------------------------ waist
+    def _waist_feasible(self, arm, xyz, standoff, other_arm_joints, current, waist, other_xyz,
+                        other_standoff, other_current):
+        """(ik, other ik) at one waist angle; ik.reachable and other.reachable say if it works."""
+        ik = self.inverse(arm, xyz, standoff, other_arm_joints, current, waist)
+        if other_xyz is None or not ik.reachable:
+            return ik, None
+        return ik, self.inverse(OTHER_ARM[arm], other_xyz, other_standoff, ik.joints,
+                                other_current, waist)
+
+    def _waist_bound(self, arm, xyz, standoff):
+        """False when no waist angle can bring xyz into the arm's reach (distance and height
+        do not depend on the waist): skips a pointless search."""
+        bx, by, bz = self.arm_base_xyz[arm]
+        rho = math.hypot(bx, by)
+        d = math.hypot(xyz[0], xyz[1])
+        inner, outer = self.reach(standoff)
+        lift = xyz[2] - self.waist_height - bz
+        lo, hi = self.limits['lift']
+        return (d - rho <= outer + 1e-9 and d + rho >= inner - 1e-9 and
+                lo - 1e-12 <= lift <= hi + 1e-12)
+
+    def inverse_waist(self, arm, xyz, standoff=0.0, other_arm_joints=None, current=None,
+                      waist=0.0, other_xyz=None, other_standoff=0.0, other_current=None,
+                      step=WAIST_STEP, margin=WAIST_MARGIN):
+        """IK with the waist free to turn: a WaistSolution (module docstring).
+
+        xyz, standoff, other_arm_joints, current: as inverse(); waist: the current waist angle.
+        other_xyz / other_standoff / other_current: a target the other arm must reach too at
+        the same waist angle (None: this arm only). At the current angle the answer is exactly
+        inverse()'s when it reaches (and the other arm reaches its target); otherwise the
+        smallest rotation within the waist limits that keeps `margin` to the edge of the
+        feasible range. When no angle serves both targets but this arm reaches at the current
+        angle, that answer stands (`other` says why the other arm cannot). When nothing works,
+        ik is the current angle's, unreachable, its reason followed by why the waist does not
+        help.
+        """
+        try:
+            waist = float(waist)
+        except (TypeError, ValueError):
+            waist = float('nan')
+        if not math.isfinite(waist):
+            return WaistSolution(IKResult(False, None, '', 'NaN in waist angle', []), waist,
+                                 False, None)
+        ik, other = self._waist_feasible(arm, xyz, standoff, other_arm_joints, current, waist,
+                                         other_xyz, other_standoff, other_current)
+        if ik.reachable and (other is None or other.reachable):
+            return WaistSolution(ik, waist, False, other)
+        try:
+            p = np.asarray(xyz, dtype=float).reshape(3)
+            bad = arm not in ARMS or not np.all(np.isfinite(p)) or \
+                not float(standoff) >= 0.0 or not math.isfinite(float(standoff))
+            if other_xyz is not None:
+                q = np.asarray(other_xyz, dtype=float).reshape(3)
+                bad = bad or not np.all(np.isfinite(q)) or not float(other_standoff) >= 0.0 \
+                    or not math.isfinite(float(other_standoff))
+        except (TypeError, ValueError):
+            bad = True
+        if bad:
+            if ik.reachable:        # only the other target is bad
+                ik = IKResult(False, None, '', '%s arm: %s' % (OTHER_ARM[arm], other.reason),
+                              ik.candidates)
+            return WaistSolution(ik, waist, False, other)     # invalid input: no search
+        lo, hi = self.waist_limits
+        found = None
+        ok = self._waist_bound(arm, p, standoff)
+        if ok and other_xyz is not None:
+            ok = self._waist_bound(OTHER_ARM[arm], np.asarray(other_xyz, dtype=float).reshape(3),
+                                   other_standoff)
+        if ok and step > 0.0:
+            cache = {}
+
+            def works(k):
+                if k not in cache:
+                    w = waist + k * step
+                    if w < lo - 1e-12 or w > hi + 1e-12:
+                        cache[k] = None
+                    else:
+                        a, b = self._waist_feasible(arm, p, standoff, other_arm_joints, current,
+                                                    w, other_xyz, other_standoff, other_current)
+                        cache[k] = (a, b) if a.reachable and (b is None or b.reachable) else None
+                return cache[k]
+
+            m = max(0, int(math.ceil(margin / step - 1e-9)))
+            kmax = int(math.ceil((hi - lo) / step)) + 1
+            for k in range(1, kmax + 1):
+                for kk in (k, -k):
+                    if works(kk) is not None and all(
+                            works(kk + j) is not None for j in (-m, m) if j):
+                        found = kk
+                        break
+                if found is not None:
+                    break
+        if found is not None:
+            a, b = cache[found]
+            return WaistSolution(a, waist + found * step, True, b)
+        if ik.reachable:
+            # this arm reaches where the waist is and no angle serves both: its own answer
+            # stands (the other arm's failure shows in `other`, as without the waist)
+            return WaistSolution(ik, waist, False, other)
+        text = '%s; no waist angle in [%.0f, %.0f] deg reaches %s' % (
+            ik.reason, math.degrees(lo), math.degrees(hi),
+            'it' if other_xyz is None else 'both targets')
+        return WaistSolution(IKResult(False, None, '', text, ik.candidates), waist, False, other)

@@ -6,10 +6,17 @@ current ``joint_states`` give the waist angle, the other arm's pose (clearance c
 arm's pose (the IK branch with the smallest joint motion is chosen). Goals are answered directly
 in the goal callback (no execute_cb polling); the IK itself takes well under a millisecond.
 
+Waist (goal `solve_waist`, optional): a target out of reach at the current waist angle is solved
+with the smallest waist rotation that brings it in (kinematics.RobotGeometry.inverse_waist); with
+`check_other` the other arm must reach `other_target` at that angle too. The result's
+`move_waist`/`waist` say which angle the joints are for. Goals without these fields are solved at
+the current waist angle exactly as before. With ~base_frame waist_link the waist is not solved.
+
 Outcomes: succeeded with reachable=true and joint_goal.positions = [lift, boom, forearm]
 (time_from_start = slowest axis at robot.yaml speeds); succeeded with reachable=false and a reason
 when the point is geometrically unreachable; aborted (reason in result and status text) for
-invalid goals: NaN, negative standoff, no transform.
+invalid goals: NaN, negative standoff, no transform (of the target or, with check_other, of
+other_target).
 
 Subscribed: joint_states (sensor_msgs/JointState; partial messages are merged).
 Params:
@@ -110,6 +117,18 @@ class KinematicsServer(object):
         rospy.logwarn_throttle(1.0, 'kinematics: goal rejected: %s' % reason)
         self.server.set_aborted(KinematicsResult(reachable=False, reason=reason), reason)
 
+    def _other_target(self, goal):
+        """(xyz, standoff) of the other arm's target of a waist goal, or (None, 0); raises
+        ValueError for an invalid one."""
+        if not (goal.solve_waist and goal.check_other):
+            return None, 0.0
+        p = goal.other_target.point
+        if not all(math.isfinite(v) for v in (p.x, p.y, p.z)):
+            raise ValueError('NaN in other_target')
+        if not math.isfinite(goal.other_standoff) or goal.other_standoff < 0.0:
+            raise ValueError('other_standoff %r must be >= 0' % goal.other_standoff)
+        return self._point_in_base(goal.other_target), float(goal.other_standoff)
+
     def _point_in_base(self, target):
         """xyz of the goal point in base_frame, or raise ValueError with a reason."""
         frame = target.header.frame_id.lstrip('/')
@@ -145,6 +164,7 @@ class KinematicsServer(object):
             return None
         try:
             xyz = self._point_in_base(goal.target)
+            other_xyz, other_standoff = self._other_target(goal)
         except ValueError as err:
             self._abort(str(err))
             return None
@@ -157,14 +177,38 @@ class KinematicsServer(object):
             rospy.logwarn_throttle(10.0, 'kinematics: %s arm state unknown, clearance checked '
                                    'against its home pose' % OTHER_ARM[arm])
         current = self._arm_state(positions, arm)
-        ik = self.geometry.inverse(arm, xyz, standoff=goal.standoff, other_arm_joints=other,
-                                   current=current, waist=waist)
+        if goal.solve_waist and self.base_frame == WAIST_FRAME:
+            rospy.logwarn_throttle(10.0, 'kinematics: solve_waist ignored: targets are taken in '
+                                   '%s, which turns with the waist' % WAIST_FRAME)
+        if goal.solve_waist and self.base_frame != WAIST_FRAME:
+            sol = self.geometry.inverse_waist(
+                arm, xyz, standoff=goal.standoff, other_arm_joints=other, current=current,
+                waist=waist, other_xyz=other_xyz, other_standoff=other_standoff,
+                other_current=other)
+            ik, new_waist, moved = sol.ik, sol.waist, sol.moved
+            if sol.other is not None and not sol.other.reachable and ik.reachable:
+                rospy.logwarn_throttle(1.0, 'kinematics: no waist angle lets the %s arm reach '
+                                       'its target too (%s); %s arm solved where the waist is'
+                                       % (OTHER_ARM[arm], sol.other.reason, arm))
+        else:
+            ik = self.geometry.inverse(arm, xyz, standoff=goal.standoff, other_arm_joints=other,
+                                       current=current, waist=waist)
+            new_waist, moved = waist, False
         self.server.publish_feedback(KinematicsFeedback(branches_checked=len(ik.candidates)))
-        result = KinematicsResult(reachable=ik.reachable, branch=ik.branch, reason=ik.reason)
+        result = KinematicsResult(reachable=ik.reachable, branch=ik.branch, reason=ik.reason,
+                                  move_waist=bool(ik.reachable and moved),
+                                  waist=float(new_waist))
         if ik.reachable:
             result.joint_goal.positions = list(ik.joints)
             start = current if current is not None else HOME_JOINTS[arm]
-            result.joint_goal.time_from_start = rospy.Duration(self.motion_time(start, ik.joints))
+            seconds = self.motion_time(start, ik.joints)
+            if moved and self.geometry.speed.get('waist'):
+                seconds = max(seconds, abs(new_waist - waist) / self.geometry.speed['waist'])
+                rospy.loginfo('kinematics: %s arm reaches (%.3f, %.3f, %.3f) with the waist '
+                              'turned %.1f -> %.1f deg' % (arm, xyz[0], xyz[1], xyz[2],
+                                                           math.degrees(waist),
+                                                           math.degrees(new_waist)))
+            result.joint_goal.time_from_start = rospy.Duration(seconds)
         else:
             rospy.logwarn_throttle(1.0, 'kinematics: %s arm cannot reach (%.3f, %.3f, %.3f): %s'
                                    % (arm, xyz[0], xyz[1], xyz[2], ik.reason))

@@ -5,7 +5,8 @@ return an :class:`Outcome` once their goal is finished. They ignore polls taken 
 commands were written (``first_poll``), so a stale sample can never end a goal.
 
 MoveRobot ``succeed`` codes (result of ``move_robot``):
-  1 success; 0 failure (other); -1 invalid goal (NaN, wrong length, beyond limits);
+  1 success; 0 failure (other); -1 invalid goal (NaN, wrong length, beyond limits, also of
+  the optional waist target);
   -2 drive fault; -3 timeout; -4 lost connection to the controller; -5 halted or preempted;
   -6 the controller refused the command (Modbus exception).
 """
@@ -78,16 +79,30 @@ def _finite(values):
     return all(isinstance(v, (int, float)) and math.isfinite(v) for v in values)
 
 
-def validate_arm_goal(positions, velocities, left, limits):
+def validate_arm_goal(positions, velocities, left, limits, waist=None):
     """Check a MoveRobot goal; returns (axis names, targets, speeds) or raises GoalError.
 
     positions: [lift, boom, forearm]; velocities: empty or 3 per-joint speed limits (>= 0,
-    0 = default speed; values above the default are reduced to it).
+    0 = default speed; values above the default are reduced to it). waist: None (the goal
+    leaves the waist alone) or the waist angle to turn to in the same move (axis `waist`, at
+    its default speed); with a waist, empty positions (and velocities) move the waist alone.
     """
-    names = arm_axes(left)
-    arm = 'left' if left else 'right'
     positions = list(positions)
     velocities = list(velocities)
+    if waist is not None:
+        if not _finite([waist]):
+            raise GoalError('waist target is not a finite number: %r' % (waist,))
+        if 'waist' not in limits:
+            raise GoalError('this robot has no waist axis')
+        check_range(limits['waist'], waist)
+        if not positions:
+            if velocities:
+                raise GoalError('target_joint.velocities must be empty for a waist-only goal')
+            return ['waist'], [float(waist)], [limits['waist'].speed]
+        names, targets, speeds = validate_arm_goal(positions, velocities, left, limits)
+        return names + ['waist'], targets + [float(waist)], speeds + [limits['waist'].speed]
+    names = arm_axes(left)
+    arm = 'left' if left else 'right'
     if len(positions) != 3:
         raise GoalError('target_joint.positions needs 3 values [lift, boom, forearm] for the %s '
                         'arm, got %d' % (arm, len(positions)))

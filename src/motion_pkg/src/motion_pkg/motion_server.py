@@ -291,7 +291,8 @@ class MotionServer(object):
         previous = self._take('move_robot')
         try:
             names, targets, speeds = mg.validate_arm_goal(
-                goal.target_joint.positions, goal.target_joint.velocities, goal.arm, self.limits)
+                goal.target_joint.positions, goal.target_joint.velocities, goal.arm, self.limits,
+                goal.waist if goal.move_waist else None)
             entry = self._start_axes_move('move_robot', handle, names, targets, speeds,
                                           self._finish_move_robot, self._feedback_move_robot)
         except mg.GoalError as exc:

@@ -8,9 +8,9 @@ confirmed once the executive reports DO_STOP. Every manual motion is refused unl
 is paused (DO_STOP) or no mission is running (executive_state.manual_allowed). Every manual command,
 accepted or refused, is published as an operator mission event (operator_events.py).
 
-The waist has a jog row too (robot.yaml axis `waist`, joint `waist_joint`); motion_pkg has no waist
-command yet (move_robot moves one arm, move_base the cart), so a waist jog that passes the gate is
-refused with that reason until `actions/move_waist` names a server (none exists today).
+The waist has a jog row too (robot.yaml axis `waist`, joint `waist_joint`): a waist jog that passes
+the same gate sends a `move_robot` goal that moves the waist alone (MoveRobot `move_waist`, no arm
+positions), clamped to robot.yaml's waist limits.
 """
 import math
 import os
@@ -353,8 +353,9 @@ class OperationPanel(Panel):
             target, note = manual_ops.waist_jog_target(delta, self.positions, self.limits)
         except ValueError as exc:
             return self._refuse('jog', '%s refused: %s' % (what, exc))
-        return self._refuse('jog', '%s -> %.3f rad%s refused: motion_pkg has no waist command (move_robot moves '
-                                   'one arm, move_base the cart)' % (what, target, (' (%s)' % note) if note else ''))
+        self._send('move_robot', MoveRobotGoal(move_waist=True, waist=target),
+                   '%s -> %.3f rad%s' % (what, target, (' (%s)' % note) if note else ''), 'jog')
+        return True
 
     def move_cart(self, point):
         what = 'Move cart to picking point %d' % point
