@@ -112,3 +112,41 @@ def test_points_on_fruit_only_inside_the_part():
     p = [100.0, 0.0, 25.0, 0.0, 0.0, 100.0, 15.0, 0.0, 0.0, 0.0, 1.0, 0.0]
     pts = localisation.points_on_fruit(cloud, det, p)
     assert 0 < len(pts) <= 100
+
+
+def test_a_fruit_seen_only_by_its_highlight_is_ranged_by_the_highlight_virtual_image():
+    """In dim light a glossy fruit's skin has no texture: stereo matches only the highlight, the
+    light's virtual image R/2 behind the skin's front, so the skin model put the centre too far.
+    Given the image, those points are ranged as the virtual image."""
+    import cv2
+    radius, centre = 0.035, np.array([0.03, -0.02, 0.55])       # right camera frame
+    u0, v0 = scene.project(centre)
+    r_px = scene.FOCAL * radius / centre[2]
+    image = np.zeros((scene.HEIGHT, scene.WIDTH, 3), np.uint8)
+    cv2.circle(image, (int(round(u0)), int(round(v0))), int(r_px), (30, 40, 120), -1)
+    gu, gv = u0 - 0.3 * r_px, v0 - 0.35 * r_px          # the highlight, up and left of centre
+    cv2.circle(image, (int(round(gu)), int(round(gv))), 5, (200, 210, 250), -1)
+    cloud = np.full((scene.HEIGHT, scene.WIDTH, 3), np.nan, np.float32)
+    axis = centre / np.linalg.norm(centre)
+    virtual = np.linalg.norm(centre) - radius / 2.0      # depth of the virtual image along the axis
+    for dv in range(-4, 5):
+        for du in range(-4, 5):
+            if du * du + dv * dv > 16:
+                continue
+            u, v = gu + du, gv + dv
+            ray = np.array([(u - scene.CX) / scene.FOCAL, (v - scene.CY) / scene.FOCAL, 1.0])
+            point = ray * (virtual / ray.dot(axis))          # right frame
+            left = point + np.array([scene.BASELINE, 0.0, 0.0])
+            ul = int(round(scene.FOCAL * left[0] / left[2] + scene.CX))
+            cloud[int(round(v)), ul] = left
+    det = Detection(u0, v0, r_px, 0.95)
+    truth = centre + np.array([scene.BASELINE, 0.0, 0.0])
+    skin_only = localisation.locate(cloud, det, P_RIGHT)
+    assert np.linalg.norm(skin_only.centre - truth) > 0.012       # the old bias: about R/2
+    ranged = localisation.locate(cloud, det, P_RIGHT, image=image)
+    assert np.linalg.norm(ranged.centre - truth) < 0.003, ranged
+    # a fruit whose points are all on its ordinary skin is ranged as before
+    dull = image.copy()
+    cv2.circle(dull, (int(round(gu)), int(round(gv))), 5, (30, 40, 120), -1)
+    assert np.allclose(localisation.locate(cloud, det, P_RIGHT, image=dull).centre,
+                       skin_only.centre)

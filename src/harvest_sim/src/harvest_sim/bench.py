@@ -205,7 +205,7 @@ def stage_costs(scenario_name, repeat=7):
             c = localisation.cloud_array(raw, cam.height, cam.width, 32, 32 * cam.width,
                                          (0, 4, 8))
             for d in dets:
-                localisation.locate(c, d, P)
+                localisation.locate(c, d, P, image=right)
         out['image_processing: points2 decode + locate (%d fruit)' % len(dets)] = \
             _median_ms(decode_locate, repeat)
     except ImportError as exc:

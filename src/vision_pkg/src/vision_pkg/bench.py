@@ -374,7 +374,7 @@ def run(args, log=print):
                                                    frame['baseline'])
                 bm_ms.append((time.perf_counter() - t0) * 1000.0)
             t0 = time.perf_counter()
-            loc = localisation.locate(cloud, d, p_right)
+            loc = localisation.locate(cloud, d, p_right, image=right)
             loc_ms.append((time.perf_counter() - t0) * 1000.0)
             if loc is None:
                 no_point += 1

@@ -476,7 +476,7 @@ class ImageProcessingNode(object):
                                          (offsets['x'], offsets['y'], offsets['z']),
                                          cloud_msg.is_bigendian)
         detections = self.stereo_detector.detect(bgr)
-        found = [(det, localisation.locate(cloud, det, info.P)) for det in detections]
+        found = [(det, localisation.locate(cloud, det, info.P, image=bgr)) for det in detections]
         with self._cache_lock:
             self._cache = (stamp, found)
         return found
