@@ -333,3 +333,31 @@ def test_calyx_and_stem_across_a_red_fruit_do_not_lower_its_grade():
     # the same fruit graded with the green pixels as skin (the old rule) is not red
     old = TomatoDetector(skin_min_ripeness=0.0).detect(image)
     assert max(old, key=lambda d: _match(d, fruit)).stage < detection.STAGE_RED
+
+
+def test_red_fruit_with_a_leaf_across_its_edge_keeps_its_own_circle():
+    """harvest_sim's plant_factory_led, third picking point: a leaf lies across the left edge of
+    a red fruit (f02_0) and over a pink fruit beside it. The bridge through the leaf's green
+    joined a sliver of the pink fruit to the red one by a thin neck, and the circle through
+    the sliver and the bridge's edge came out 67 px for a fruit of 48 px (3D radius 56 mm: too
+    large to be picked). The bridged mask is opened like the colour mask, and the edge of a
+    bridge is not taken for the fruit's outline."""
+    import os
+    from harvest_sim import camera_model, render, scenario as scn
+    from motion_pkg.kinematics import RobotGeometry
+    src = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..')
+    geom = RobotGeometry.from_yaml(os.path.join(src, 'visualization_pkg', 'config', 'robot.yaml'))
+    sc = scn.load_scenario(os.path.join(src, 'harvest_sim', 'scenarios', 'plant_factory_led.yaml'))
+    camera = camera_model.stereo_camera()
+    _, right_T = scn.stereo_eyes(geom, sc.track.picking_points[2])
+    image = render.Renderer(sc).render(camera, right_T, render.fruits_from_scenario(sc),
+                                       noise_key=('stereo_right', 2))
+    fruit = [f for f in sc.fruits if f.id == 'f02_0'][0]
+    p = camera_model.to_camera(right_T, fruit.position)[0]
+    u, v, r = (camera.fx * p[0] / p[2] + camera.cx, camera.fy * p[1] / p[2] + camera.cy,
+               camera.fx * fruit.radius / p[2])
+    dets = TomatoDetector().detect(image)
+    det = min(dets, key=lambda d: math.hypot(d.u - u, d.v - v))
+    assert math.hypot(det.u - u, det.v - v) < 0.1 * r, (det, u, v, r)
+    assert det.radius_px == pytest.approx(r, rel=0.1), (det, r)
+    assert det.stage == detection.STAGE_RED

@@ -434,7 +434,14 @@ class TomatoDetector(object):
             cv2.MORPH_ELLIPSE, (size, size)))
         fillable = cv2.bitwise_or(green, cv2.inRange(hsv[:, :, 2], 0,
                                                      int(self.params['bridge_val_max'])))
-        return cv2.bitwise_or(mask, cv2.bitwise_and(closed, fillable))
+        bridged = cv2.bitwise_or(mask, cv2.bitwise_and(closed, fillable))
+        # opened like the colour mask (`open_px`): a bridge is as wide as the sepal or leaf it
+        # crosses; a thin neck through a leaf to a sliver of another fruit is not one
+        size = int(self.params['open_px']) | 1
+        if size > 1:
+            bridged = cv2.morphologyEx(bridged, cv2.MORPH_OPEN, cv2.getStructuringElement(
+                cv2.MORPH_ELLIPSE, (size, size)))
+        return bridged
 
     def pixel_ripeness(self, hsv_pixels):
         """Per-pixel ripeness (0..1) of Nx3 uint8 HSV pixels."""
@@ -704,6 +711,10 @@ class TomatoDetector(object):
         on_border = (gx + ox <= 0) | (gy + oy <= 0) | (gx + ox >= width - 1) | \
             (gy + oy >= height - 1)
         outer[gy[on_border], gx[on_border]] = False
+        if frame.fill is not None:
+            # nor is the edge of a bridge (a leaf, sepal or shadow filled between ripe parts)
+            h, w = comp.shape
+            outer &= frame.fill[oy:oy + h, ox:ox + w] == 0
         # hypothesis A: one fruit per distance-transform peak (power-diagram parts)
         candidates = []          # (part mask, circle)
         peak_rs = []
