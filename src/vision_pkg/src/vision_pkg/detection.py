@@ -34,16 +34,20 @@ Made to hold on real photographs as well as on harvest_sim's renders. For one BG
 Cost is bounded by design: pixel work is vectorised OpenCV/numpy at the working size, regions
 too small are rejected from their statistics before any per-region work, at most
 ~max_regions regions per pass (largest first) and ~max_peaks fruit per region are examined.
+
+This module holds the parameters, colour (steps 0-2), the passes and grading (4-5); step 3 is
+vision_pkg.regions (RegionSplitter, which TomatoDetector extends), its circle fits
+vision_pkg.circle_fit, and the result type and stages vision_pkg.fruit (re-exported here).
 """
 import math
 
 import cv2
 import numpy as np
 
-STAGE_GREEN, STAGE_TURNING, STAGE_PINK, STAGE_RED = 0, 1, 2, 3
-STAGE_NAMES = ('green', 'turning', 'pink', 'red')
-#: score thresholds between consecutive stages
-STAGE_THRESHOLDS = (0.25, 0.5, 0.7)
+from vision_pkg.circle_fit import arc_fit_circle, fit_circle, robust_fit_circle  # noqa: F401
+from vision_pkg.fruit import (STAGE_GREEN, STAGE_NAMES, STAGE_PINK, STAGE_RED,  # noqa: F401
+                              STAGE_THRESHOLDS, STAGE_TURNING, Detection, stage_of)
+from vision_pkg.regions import Frame, RegionSplitter, share_inside
 
 #: default parameters (ROS params of the same names override them; see config/*.yaml)
 DEFAULTS = {
@@ -106,117 +110,6 @@ DEFAULTS = {
 }
 
 
-def stage_of(score):
-    """Ripeness stage (STAGE_*) of a 0..1 ripeness score."""
-    for stage, threshold in enumerate(STAGE_THRESHOLDS):
-        if score < threshold:
-            return stage
-    return STAGE_RED
-
-
-class Detection(object):
-    """One detected fruit, in full-resolution pixel coordinates of the input image."""
-
-    __slots__ = ('u', 'v', 'radius_px', 'score', 'stage', 'fill', 'area_px', 'mask',
-                 'mask_origin', 'mask_scale', 'hue_angle', 'chroma', 'behind')
-
-    def __init__(self, u, v, radius_px, score, mask=None, mask_origin=(0, 0), mask_scale=1.0,
-                 fill=1.0, area_px=0.0, hue_angle=float('nan'), chroma=float('nan'),
-                 behind=False):
-        self.u = float(u)
-        self.v = float(v)
-        self.radius_px = float(radius_px)
-        self.score = float(score)
-        self.stage = stage_of(self.score)
-        self.mask = mask                  # bool crop of the fruit part at mask_scale
-        self.mask_origin = mask_origin    # (x, y) of the crop in mask_scale pixels
-        self.mask_scale = mask_scale
-        self.fill = float(fill)
-        self.area_px = float(area_px)
-        self.hue_angle = float(hue_angle)
-        self.chroma = float(chroma)
-        self.behind = bool(behind)        # seen behind a fruit in front (split off its region)
-
-    def box(self, width=None, height=None):
-        """(x, y, w, h) integer box around the fitted circle, clipped to the image if given."""
-        x0 = int(math.floor(self.u - self.radius_px))
-        y0 = int(math.floor(self.v - self.radius_px))
-        x1 = int(math.ceil(self.u + self.radius_px))
-        y1 = int(math.ceil(self.v + self.radius_px))
-        if width is not None:
-            x0, x1 = max(x0, 0), min(x1, width)
-        if height is not None:
-            y0, y1 = max(y0, 0), min(y1, height)
-        return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
-
-    def contains(self, u, v):
-        """Vectorised: is full-resolution pixel (u, v) on this fruit's visible part?"""
-        u = np.asarray(u, dtype=np.float64)
-        v = np.asarray(v, dtype=np.float64)
-        finite = np.isfinite(u) & np.isfinite(v)
-        u = np.where(finite, u, -1e6)
-        v = np.where(finite, v, -1e6)
-        inside = (u - self.u) ** 2 + (v - self.v) ** 2 <= self.radius_px ** 2
-        if self.mask is None:
-            return inside
-        mx = np.floor(u * self.mask_scale).astype(np.int64) - self.mask_origin[0]
-        my = np.floor(v * self.mask_scale).astype(np.int64) - self.mask_origin[1]
-        h, w = self.mask.shape
-        ok = inside & (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
-        out = np.zeros(ok.shape, dtype=bool)
-        out[ok] = self.mask[my[ok], mx[ok]]
-        return out
-
-    def __repr__(self):
-        return 'Detection(u=%.1f, v=%.1f, r=%.1f, score=%.2f, %s)' % (
-            self.u, self.v, self.radius_px, self.score, STAGE_NAMES[self.stage])
-
-
-def fit_circle(xs, ys):
-    """Algebraic least-squares circle (Kasa), solved in centred coordinates from its 2 x 2
-    normal equations. Returns (cx, cy, r) or None (fewer than 5 points, or collinear)."""
-    n = len(xs)
-    if n < 5:
-        return None
-    mx, my = float(np.mean(xs)), float(np.mean(ys))
-    u = np.asarray(xs, dtype=np.float64) - mx
-    v = np.asarray(ys, dtype=np.float64) - my
-    uu, vv, uv = float(u.dot(u)), float(v.dot(v)), float(u.dot(v))
-    det = uu * vv - uv * uv
-    if det <= 1e-9 * max(uu * vv, 1e-12):
-        return None
-    w = u * u + v * v
-    bu, bv = 0.5 * float(u.dot(w)), 0.5 * float(v.dot(w))
-    uc = (bu * vv - bv * uv) / det
-    vc = (bv * uu - bu * uv) / det
-    r2 = uc * uc + vc * vc + (uu + vv) / n
-    if r2 <= 0:
-        return None
-    return uc + mx, vc + my, math.sqrt(r2)
-
-
-def robust_fit_circle(xs, ys, iterations=2, keep=0.8):
-    """Kasa fit, then refits on the best `keep` fraction of points by radial residual."""
-    circle = fit_circle(xs, ys)
-    for _ in range(iterations):
-        if circle is None:
-            return None
-        res = np.abs(np.hypot(xs - circle[0], ys - circle[1]) - circle[2])
-        n = max(int(len(xs) * keep), 5)
-        if n >= len(xs):
-            break
-        idx = np.argpartition(res, n - 1)[:n]
-        xs, ys = xs[idx], ys[idx]
-        circle = fit_circle(xs, ys)
-    return circle
-
-
-def _support(circle, xs, ys, tol=1.0, rel=0.03):
-    """Number of points within tol + rel * r of the circle."""
-    cx, cy, r = circle
-    return int(np.count_nonzero(np.abs(np.hypot(xs - cx, ys - cy) - r) <= tol + rel * r))
-
-
 #: linear sRGB -> CIE XYZ (D65), rows X, Y, Z, divided by the D65 white point
 _RGB_TO_XYZ_WHITE = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722],
                               [0.0193, 0.1192, 0.9505]]) / np.array([[0.95047], [1.0], [1.08883]])
@@ -232,70 +125,8 @@ def lab_hue_angle(bgr):
     return math.degrees(math.atan2(200.0 * (f[1] - f[2]), 500.0 * (f[0] - f[1])))
 
 
-_TRIPLES = {}
-
-
-def _triples(seed, trials):
-    """trials x 3 uniform numbers in [0, 1) drawn once per (seed, trials): point triples."""
-    key = (seed, trials)
-    if key not in _TRIPLES:
-        _TRIPLES[key] = np.random.default_rng(seed).random((trials, 3))
-    return _TRIPLES[key]
-
-
-def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
-    """Circle that the largest part of an outline follows (RANSAC over point triples, then a
-    Kasa refit on its inliers), with r in [r_min, r_max]; None when none is found.
-
-    A fruit partly behind a leaf has an outline of its own arc plus the leaf's edge; a
-    least-squares fit over both shrinks the circle, the arc's own circle does not. Triples are
-    drawn from a fixed seed, so the result is repeatable.
-    """
-    n = len(xs)
-    if n < 8:
-        return None
-    idx = np.minimum((_triples(seed, trials) * n).astype(np.int64), n - 1)
-    x1, x2, x3 = xs[idx[:, 0]], xs[idx[:, 1]], xs[idx[:, 2]]
-    y1, y2, y3 = ys[idx[:, 0]], ys[idx[:, 1]], ys[idx[:, 2]]
-    d = 2.0 * (x1 * (y2 - y3) + x2 * (y3 - y1) + x3 * (y1 - y2))
-    ok = np.abs(d) > 1e-6
-    if not ok.any():
-        return None
-    d = np.where(ok, d, 1.0)
-    s1, s2, s3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
-    cx = (s1 * (y2 - y3) + s2 * (y3 - y1) + s3 * (y1 - y2)) / d
-    cy = (s1 * (x3 - x2) + s2 * (x1 - x3) + s3 * (x2 - x1)) / d
-    r = np.hypot(x1 - cx, y1 - cy)
-    ok &= (r >= r_min) & (r <= r_max)
-    if not ok.any():
-        return None
-    cand = np.flatnonzero(ok)
-    res = np.abs(np.hypot(xs[None, :] - cx[cand, None], ys[None, :] - cy[cand, None])
-                 - r[cand, None])
-    support = (res <= 1.0 + 0.03 * r[cand, None]).sum(axis=1)
-    best = cand[int(np.argmax(support))]
-    inliers = res[int(np.argmax(support))] <= 1.0 + 0.03 * r[best]
-    if inliers.sum() < 8:
-        return None
-    refit = fit_circle(xs[inliers], ys[inliers])
-    if refit is None or not r_min <= refit[2] <= r_max:
-        return float(cx[best]), float(cy[best]), float(r[best])
-    return refit
-
-
-class _Frame(object):
-    """The working images of one detect() call."""
-
-    __slots__ = ('small', 'hsv', 'scale', 'fill', 'gx', 'gy')
-
-    def __init__(self, small, hsv, scale):
-        self.small, self.hsv, self.scale = small, hsv, scale
-        self.fill = self.gx = self.gy = None
-
-
-class TomatoDetector(object):
+class TomatoDetector(RegionSplitter):
     """Finds tomatoes in BGR images; parameters as in DEFAULTS."""
-
     def __init__(self, **params):
         unknown = set(params) - set(DEFAULTS)
         if unknown:
@@ -483,7 +314,7 @@ class TomatoDetector(object):
         r_min = p['min_radius_px'] * scale
         r_max = p['max_radius_px'] * scale
         ripe, green = self.colour_masks(hsv)
-        frame = _Frame(small, hsv, scale)
+        frame = Frame(small, hsv, scale)
         # pass 1: ripe colours (red, orange, pink; the coloured part of turning fruit)
         ripe = self._clean(ripe)
         bridged = self._bridge(ripe, hsv, green)
@@ -505,7 +336,7 @@ class TomatoDetector(object):
                 ripe2 = self._clean(ripe2, factor)
             else:
                 factor, small2, hsv2, ripe2, green2 = 1.0, small, hsv, ripe, green
-            frame2 = _Frame(small2, hsv2, scale * factor)
+            frame2 = Frame(small2, hsv2, scale * factor)
             frame2.gx, frame2.gy = self.gradient_maps(cv2.cvtColor(small2, cv2.COLOR_BGR2GRAY))
             both = cv2.bitwise_or(ripe2, green2)
             # the visible parts of the fruit found in pass 1 are taken out first: a turning
@@ -517,81 +348,9 @@ class TomatoDetector(object):
                                         r_max * factor, strict=True, need=green2):
                 # the rest of a fruit already found (its yellow-green shoulder, say) lies
                 # mostly inside that fruit's circle; a fruit in front of or behind it does not
-                if all(_share_inside(det, o) <= p['max_shared_part'] for o in found):
+                if all(share_inside(det, o) <= p['max_shared_part'] for o in found):
                     found.append(det)
         return self._merge_fragments(found)
-
-    @staticmethod
-    def _erase_parts(mask, detections, mask_scale):
-        """Clear the visible part (mask crop, grown by a pixel) of each detection from a mask
-        of the input image at `mask_scale`, in place."""
-        kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
-        height, width = mask.shape
-        for det in detections:
-            # padded by a pixel so that the growth may leave the crop
-            part = cv2.dilate(np.pad(det.mask.astype(np.uint8), 1), kernel)
-            x0, y0 = det.mask_origin[0] - 1, det.mask_origin[1] - 1
-            ratio = mask_scale / det.mask_scale
-            if abs(ratio - 1.0) > 1e-9:
-                part = cv2.resize(part, None, fx=ratio, fy=ratio,
-                                  interpolation=cv2.INTER_NEAREST)
-                x0, y0 = int(round(x0 * ratio)), int(round(y0 * ratio))
-            h, w = part.shape
-            cx0, cy0 = max(x0, 0), max(y0, 0)
-            cx1, cy1 = min(x0 + w, width), min(y0 + h, height)
-            if cx0 >= cx1 or cy0 >= cy1:
-                continue
-            sub = part[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
-            mask[cy0:cy1, cx0:cx1][sub > 0] = 0
-
-    def _candidates(self, mask, frame, r_min, r_max, strict, need=None):
-        """Fruit in the regions of a mask; with `need`, only regions of which at least a
-        tenth is in that mask (the strict pass: regions with green-fruit colour)."""
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-        height, width = mask.shape
-        areas = stats[1:, cv2.CC_STAT_AREA]
-        sizes = np.maximum(stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT])
-        ok = (areas >= math.pi * r_min * r_min * 0.3) & (sizes >= 1.5 * r_min)
-        if need is not None:
-            needed = np.bincount(labels[need > 0], minlength=count)[1:]
-            ok &= needed >= 0.1 * areas
-            # a green region larger than a few of the largest fruit is canopy
-            ok &= areas <= float(self.params['max_green_region']) * math.pi * r_max * r_max
-        order = np.flatnonzero(ok)
-        order = order[np.argsort(-areas[order], kind='stable')][:int(self.params['max_regions'])]
-        detections = []
-        for index in order:
-            label = int(index) + 1
-            x, y, w, h, _ = stats[label]
-            x0, y0 = max(x - 1, 0), max(y - 1, 0)
-            x1, y1 = min(x + w + 1, width), min(y + h + 1, height)
-            comp = _fill_holes((labels[y0:y1, x0:x1] == label).astype(np.uint8))
-            detections.extend(self._split_component(comp, (x0, y0), frame, r_min, r_max,
-                                                    (width, height), strict))
-        return detections
-
-    @staticmethod
-    def _skin_pixels(frame, part, ox, oy, cx, cy, radius):
-        """(rows, cols) in the working image of the skin sample of a fruit circle."""
-        height, width = frame.hsv.shape[:2]
-        x0, y0 = max(int(cx + ox - radius), 0), max(int(cy + oy - radius), 0)
-        x1 = min(int(math.ceil(cx + ox + radius)) + 1, width)
-        y1 = min(int(math.ceil(cy + oy + radius)) + 1, height)
-        if x0 >= x1 or y0 >= y1:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        yy, xx = np.mgrid[y0:y1, x0:x1]
-        disc = (xx - (cx + ox)) ** 2 + (yy - (cy + oy)) ** 2 <= radius * radius
-        on_part = np.zeros(disc.shape, dtype=bool)
-        px0, py0 = max(x0 - ox, 0), max(y0 - oy, 0)
-        px1, py1 = min(x1 - ox, part.shape[1]), min(y1 - oy, part.shape[0])
-        if px0 < px1 and py0 < py1:
-            on_part[py0 + oy - y0:py1 + oy - y0, px0 + ox - x0:px1 + ox - x0] = \
-                part[py0:py1, px0:px1]
-        skin = disc & on_part
-        if frame.fill is not None:
-            skin &= frame.fill[y0:y1, x0:x1] == 0
-        rows, cols = np.nonzero(skin)
-        return rows + y0, cols + x0
 
     def _round_fruit_surface(self, frame, cx, cy, r, hsv_px, circle, fill, inside, score):
         """Surface and outline evidence of a candidate from the strict pass (a green fruit
@@ -663,333 +422,3 @@ class TomatoDetector(object):
             if host is None:
                 keep.append(det)
         return keep
-
-    def _peaks(self, dist, r_min):
-        """Non-maximum-suppressed distance-transform maxima: list of (x, y, r)."""
-        dil = cv2.dilate(dist, cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5)))
-        ys, xs = np.nonzero((dist >= dil) & (dist >= max(r_min * 0.6, 1.5)))
-        if len(xs) == 0:
-            return []
-        values = dist[ys, xs]
-        order = np.argsort(-values)
-        sep = self.params['peak_separation']
-        peaks = []
-        for i in order:
-            px, py, pr = float(xs[i]), float(ys[i]), float(values[i])
-            if all(math.hypot(px - qx, py - qy) > sep * max(qr, pr) + 1.0
-                   for qx, qy, qr in peaks):
-                peaks.append((px, py, pr))
-                if len(peaks) >= int(self.params['max_peaks']):
-                    break
-        return peaks
-
-    def _split_component(self, comp, origin, frame, r_min, r_max, size, strict):
-        p = self.params
-        small, hsv, scale = frame.small, frame.hsv, frame.scale
-        dist = cv2.distanceTransform(comp, cv2.DIST_L2, 5)
-        peaks = self._peaks(dist, r_min)
-        if not peaks:
-            return []
-        ys, xs = np.nonzero(comp)
-        if len(peaks) == 1:
-            owner = np.zeros(len(xs), dtype=np.int64)
-        else:
-            c = np.array(peaks)
-            power = ((xs[:, None] - c[None, :, 0]) ** 2 + (ys[:, None] - c[None, :, 1]) ** 2
-                     - c[None, :, 2] ** 2)
-            owner = np.argmin(power, axis=1)
-        parts = np.full(comp.shape, -1, dtype=np.int32)
-        parts[ys, xs] = owner
-        # outer boundary of the whole component (pixels with a background 4-neighbour)
-        eroded = cv2.erode(comp, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3)),
-                           borderType=cv2.BORDER_CONSTANT, borderValue=0)
-        outer = (comp > 0) & (eroded == 0)
-        ox, oy = origin
-        width, height = size
-        # boundary pixels on the image border are not fruit edges
-        gy, gx = np.nonzero(outer)
-        on_border = (gx + ox <= 0) | (gy + oy <= 0) | (gx + ox >= width - 1) | \
-            (gy + oy >= height - 1)
-        outer[gy[on_border], gx[on_border]] = False
-        if frame.fill is not None:
-            # nor is the edge of a bridge (a leaf, sepal or shadow filled between ripe parts)
-            h, w = comp.shape
-            outer &= frame.fill[oy:oy + h, ox:ox + w] == 0
-        # hypothesis A: one fruit per distance-transform peak (power-diagram parts)
-        candidates = []          # (part mask, circle)
-        peak_rs = []
-        for k, (px, py, pr) in enumerate(peaks):
-            part = (parts == k)
-            area = part.sum()
-            if area < math.pi * r_min * r_min * 0.3:
-                continue
-            if strict and area > p['max_area_ratio'] * math.pi * pr * pr:
-                continue      # far larger than its inscribed circle: a leaf or canopy strip
-            circle = self._fit_part(part, outer, pr)
-            if circle is not None:
-                candidates.append((part, circle))
-                peak_rs.append(pr)
-        if len(candidates) > 1 and not strict:
-            candidates = self._join_parts(candidates, peak_rs, outer)
-        if len(peaks) > 1:
-            # hypothesis B: one fruit seen in pieces (a leaf or stem in front of it) also has
-            # several peaks; keep it whole when one circle explains its outline at least as
-            # well as the parts explain theirs
-            whole = self._fit_part(comp > 0, outer, max(pk[2] for pk in peaks))
-            if whole is not None and whole[3] * whole[2] <= p['single_fit_residual_px']:
-                areas = [float(c[0].sum()) for c in candidates]
-                split = sum(a * c[1][3] for a, c in zip(areas, candidates)) / sum(areas) \
-                    if candidates else 1.0
-                pys, pxs = np.nonzero(comp)
-                cx, cy, r = whole[:3]
-                if whole[3] <= split and np.mean(
-                        (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
-                    candidates = [(comp > 0, whole)]
-        results = []
-        in_front = {}        # candidate index -> the part of the fruit in front of it
-        for index, (part, circle) in enumerate(candidates):
-            area = int(part.sum())
-            cx, cy, r = circle[:3]
-            residual = circle[3] if len(circle) > 3 else 1.0
-            if r < r_min or (r > r_max and strict):
-                continue
-            pys, pxs = np.nonzero(part)
-            if not strict and (area < p['min_fill'] * math.pi * r * r or r > r_max):
-                # a circle far larger than the part: the gentle outline of two fruit, one in
-                # front of the other, in one part (one distance-transform peak between them)
-                # fits a circle around both; the front fruit's own arc has about the radius of
-                # the part's inscribed circle
-                refit = self._fit_part(part, outer, float(cv2.distanceTransform(
-                    part.astype(np.uint8), cv2.DIST_L2, 5).max()), r_high=p['refit_radius'])
-                if refit is not None and refit[3] <= p['max_residual_refit']:
-                    cx, cy, r, residual = refit
-            inside = (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2
-            if not strict and np.mean(inside) < p['min_inside'] and \
-                    residual <= p['max_residual_refit'] and r_min <= r <= r_max and \
-                    inside.sum() >= p['min_fill_green'] * math.pi * r * r and \
-                    len(candidates) < 2 * int(p['max_peaks']) and \
-                    _outline_cover(outer, cx, cy, r) >= p['min_front_outline']:
-                # the circle follows its arc and is well filled, but much of the part lies
-                # outside: that is a fruit behind it. The front fruit is what its circle holds;
-                # the rest, if large enough, is examined as a part of its own.
-                rest = part.copy()
-                rest[pys[inside], pxs[inside]] = False
-                rest = cv2.morphologyEx(rest.astype(np.uint8), cv2.MORPH_OPEN,
-                                        cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
-                if cv2.countNonZero(rest) >= math.pi * r_min * r_min * 0.3:
-                    rest_circle = self._fit_part(rest > 0, outer, float(
-                        cv2.distanceTransform(rest, cv2.DIST_L2, 5).max()))
-                    if rest_circle is not None:
-                        candidates.append((rest > 0, rest_circle))
-                        in_front[len(candidates) - 1] = part & ~(rest > 0)
-                part = part.copy()
-                part[pys[~inside], pxs[~inside]] = False
-                pxs, pys = pxs[inside], pys[inside]
-                area = int(inside.sum())
-                inside = 1.0
-            else:
-                inside = float(np.mean(inside))
-            if inside < p['min_inside'] and len(candidates) > 1:
-                # a fruit behind a neighbour and cut by leaves: its outline is mostly leaf
-                # edges and the border with the neighbour, which no circle follows; its
-                # visible part still lies inside the fruit, so the smallest circle around
-                # that part stands for it
-                (ex, ey), er = cv2.minEnclosingCircle(
-                    np.column_stack([pxs, pys]).astype(np.float32))
-                if r_min <= er <= r_max:
-                    cx, cy, r, inside = float(ex), float(ey), float(er), 1.0
-            if r > r_max:
-                continue
-            fill = area / (math.pi * r * r)
-            if index in in_front:
-                # the fruit in front hides part of this one's circle: that part is explained
-                yy, xx = np.nonzero(in_front[index])
-                fill += float(np.sum((xx - cx) ** 2 + (yy - cy) ** 2 <= r * r)) / (math.pi * r * r)
-            # skin pixels for colour: inside 0.85 r, on the part, not bridged (sepals), not
-            # highlight or deep shadow
-            sy, sx = self._skin_pixels(frame, part, ox, oy, cx, cy, 0.85 * r)
-            hsv_px = hsv[sy, sx]
-            bgr_px = small[sy, sx]
-            good = (hsv_px[:, 2] > 2 * p['val_min']) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200)) & \
-                (bgr_px.max(axis=1) < 250)
-            if not strict:
-                # a part of ripening colour: its green-graded pixels are not its skin but the
-                # calyx, sepals and stems across it (seen from the calyx side, a star of
-                # them fills the middle of a red fruit and graded it pink)
-                good &= self.pixel_ripeness(hsv_px) >= p['skin_min_ripeness']
-            score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good])
-            min_fill = p['min_fill_green'] if strict or score < STAGE_THRESHOLDS[0] else \
-                p['min_fill']
-            if inside < p['min_inside'] or fill < min_fill:
-                continue
-            if strict and score < p['outline_gate_score'] and not self._round_fruit_surface(
-                    frame, cx + ox, cy + oy, r, hsv_px, circle, fill, inside, score):
-                continue          # green, but not round or no edge all round: a leaf
-            x0 = max(int(math.floor(cx - r)) - 1, 0)
-            y0 = max(int(math.floor(cy - r)) - 1, 0)
-            crop = part[y0:int(math.ceil(cy + r)) + 2, x0:int(math.ceil(cx + r)) + 2]
-            results.append(Detection(
-                (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, r / scale, score,
-                mask=crop.copy(), mask_origin=(x0 + ox, y0 + oy), mask_scale=scale,
-                fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma,
-                behind=index in in_front))
-        return results
-
-    def _join_parts(self, candidates, peak_rs, outer):
-        """Hypothesis C: two neighbouring parts are one fruit (a leaf or calyx notch in its
-        outline made two distance-transform peaks) when their circles overlap, one circle
-        follows their joint outline within `join_residual_px` (median) and holds `min_inside`
-        of their pixels. (Small parts fit their own short arcs almost exactly, so comparing
-        with the parts' fits, as hypothesis B does, would keep them apart.) Greedy, best first."""
-        p = self.params
-        kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
-        cands = [(part, circle, pr) for (part, circle), pr in zip(candidates, peak_rs)]
-        while len(cands) > 1:
-            best = None
-            for i in range(len(cands)):
-                grown = None
-                for j in range(i + 1, len(cands)):
-                    (xi, yi, ri), (xj, yj, rj) = cands[i][1][:3], cands[j][1][:3]
-                    if math.hypot(xi - xj, yi - yj) > 0.9 * (ri + rj):
-                        continue      # two whole fruit side by side, not halves of one
-                    if grown is None:
-                        grown = cv2.dilate(cands[i][0].astype(np.uint8), kernel) > 0
-                    if not np.any(grown & cands[j][0]):
-                        continue
-                    union = cands[i][0] | cands[j][0]
-                    fit = self._fit_part(union, outer, max(cands[i][2], cands[j][2]))
-                    if fit is None or fit[3] * fit[2] > p['join_residual_px']:
-                        continue
-                    pys, pxs = np.nonzero(union)
-                    cx, cy, r = fit[:3]
-                    if np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
-                        continue
-                    if best is None or fit[3] < best[0]:
-                        best = (fit[3], i, j, union, fit)
-            if best is None:
-                break
-            _, i, j, union, fit = best
-            joined = (union, fit, max(cands[i][2], cands[j][2]))
-            cands = [c for k, c in enumerate(cands) if k not in (i, j)] + [joined]
-        return [(part, circle) for part, circle, _ in cands]
-
-    @staticmethod
-    def _fit_part(part, outer, peak_r, r_high=3.0):
-        """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
-        lie on its convex hull, radius in [0.8, r_high] x the inscribed radius `peak_r` (+2);
-        residual = median radial misfit / r (1.0 for the fallback)."""
-        part8 = part.astype(np.uint8)
-        # the work is done on the part's bounding box (+1 px): a part of a large cluster is
-        # a small share of its region's crop
-        bx, by, bw, bh = cv2.boundingRect(part8)
-        if bw == 0 or bh == 0:
-            return None
-        x0, y0 = max(bx - 1, 0), max(by - 1, 0)
-        x1, y1 = min(bx + bw + 1, part8.shape[1]), min(by + bh + 1, part8.shape[0])
-        circle = TomatoDetector._fit_crop(part8[y0:y1, x0:x1], outer[y0:y1, x0:x1], peak_r,
-                                          r_high)
-        if circle is None:
-            return None
-        return (circle[0] + x0, circle[1] + y0) + tuple(circle[2:])
-
-    @staticmethod
-    def _fit_crop(part8, outer, peak_r, r_high):
-        """_fit_part() on a crop: part as 0/1 uint8."""
-        ys, xs = np.nonzero((part8 > 0) & outer)
-        moments = cv2.moments(part8, True)
-        if moments['m00'] <= 0:
-            return None
-        mx, my = moments['m10'] / moments['m00'], moments['m01'] / moments['m00']
-        fallback = (mx, my, max(peak_r, math.sqrt(moments['m00'] / math.pi)), 1.0)
-        if len(xs) < 8:
-            return fallback
-        # the hull of a region is the hull of its outline
-        contours = cv2.findContours(part8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)[-2]
-        if not contours:
-            return fallback
-        hull = cv2.convexHull(np.vstack(contours))
-        if hull is None or len(hull) < 3:
-            return fallback
-        on_hull = _hull_distance(hull, xs, ys) <= 1.5
-        if on_hull.sum() >= 8:
-            xs, ys = xs[on_hull], ys[on_hull]
-        xs = xs.astype(np.float64)
-        ys = ys.astype(np.float64)
-        r_lo, r_hi = 0.8 * peak_r, r_high * peak_r + 2.0
-        circle = robust_fit_circle(xs, ys)
-        if circle is not None and not r_lo <= circle[2] <= r_hi:
-            circle = None
-        support = _support(circle, xs, ys) if circle is not None else 0
-        arc = None
-        if support < 0.9 * len(xs):
-            arc = arc_fit_circle(xs, ys, r_lo, r_hi)
-        if arc is not None and _support(arc, xs, ys) > support:
-            # the outline is partly a straight or concave cut (a leaf or stem in front of the
-            # fruit): the circle that most of the outline follows is the fruit
-            circle = arc
-        if circle is None:
-            return fallback
-        cx, cy, r = circle
-        # the radius must be consistent with the inscribed radius, the centre near the part
-        if r < r_lo or r > r_hi:
-            return fallback
-        if math.hypot(cx - mx, cy - my) > r:
-            return fallback
-        residual = float(np.median(np.abs(np.hypot(xs - cx, ys - cy) - r))) / r
-        return cx, cy, r, residual
-
-
-def _outline_cover(outer, cx, cy, r, samples=48):
-    """Fraction of a circle (crop pixels) that runs along outline pixels of a region (within
-    1 px + 3 % of r): a fruit in front of another shows most of its outline, a circle inscribed
-    in a strip of fruit colour touches it on two sides only."""
-    height, width = outer.shape
-    a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
-    xs = np.rint(cx + r * np.cos(a)).astype(np.int64)
-    ys = np.rint(cy + r * np.sin(a)).astype(np.int64)
-    ok = (xs >= 0) & (ys >= 0) & (xs < width) & (ys < height)
-    if not ok.any():
-        return 0.0
-    tol = int(math.ceil(1.0 + 0.03 * r))
-    near = cv2.dilate(outer.astype(np.uint8), cv2.getStructuringElement(
-        cv2.MORPH_ELLIPSE, (2 * tol + 1, 2 * tol + 1)))
-    return float(np.sum(near[ys[ok], xs[ok]] > 0)) / samples
-
-
-def _share_inside(det, other):
-    """Fraction of det's visible part (its mask; every detection of detect() has one) inside
-    other's fitted circle."""
-    ys, xs = np.nonzero(det.mask)
-    if not len(xs):
-        return 0.0
-    u = (xs + det.mask_origin[0] + 0.5) / det.mask_scale - 0.5
-    v = (ys + det.mask_origin[1] + 0.5) / det.mask_scale - 0.5
-    return float(np.mean((u - other.u) ** 2 + (v - other.v) ** 2 <= other.radius_px ** 2))
-
-
-def _fill_holes(comp):
-    """Fill the holes of a 0/1 uint8 region (highlights, dark spots on the skin)."""
-    padded = cv2.copyMakeBorder(comp, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
-    flood = padded.copy()
-    ffmask = np.zeros((padded.shape[0] + 2, padded.shape[1] + 2), np.uint8)
-    cv2.floodFill(flood, ffmask, (0, 0), 1)
-    holes = flood[1:-1, 1:-1] == 0
-    out = comp.copy()
-    out[holes] = 1
-    return out
-
-
-def _hull_distance(hull, xs, ys):
-    """Distance of points to a convex polygon's boundary (points assumed inside)."""
-    pts = hull.reshape(-1, 2).astype(np.float64)
-    a = pts
-    b = np.roll(pts, -1, axis=0)
-    ab = b - a
-    len2 = np.maximum((ab * ab).sum(1), 1e-9)
-    px = xs.astype(np.float64)[:, None]
-    py = ys.astype(np.float64)[:, None]
-    t = np.clip(((px - a[None, :, 0]) * ab[None, :, 0] + (py - a[None, :, 1]) * ab[None, :, 1])
-                / len2[None, :], 0.0, 1.0)
-    dx = px - (a[None, :, 0] + t * ab[None, :, 0])
-    dy = py - (a[None, :, 1] + t * ab[None, :, 1])
-    return np.sqrt(dx * dx + dy * dy).min(axis=1)

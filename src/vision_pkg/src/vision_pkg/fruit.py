@@ -1,0 +1,75 @@
+"""A detected fruit and the ripeness stages, rospy-free (vision_pkg.detection finds them)."""
+import math
+
+import numpy as np
+
+STAGE_GREEN, STAGE_TURNING, STAGE_PINK, STAGE_RED = 0, 1, 2, 3
+STAGE_NAMES = ('green', 'turning', 'pink', 'red')
+#: score thresholds between consecutive stages
+STAGE_THRESHOLDS = (0.25, 0.5, 0.7)
+
+
+def stage_of(score):
+    """Ripeness stage (STAGE_*) of a 0..1 ripeness score."""
+    for stage, threshold in enumerate(STAGE_THRESHOLDS):
+        if score < threshold:
+            return stage
+    return STAGE_RED
+
+
+class Detection(object):
+    """One detected fruit, in full-resolution pixel coordinates of the input image."""
+
+    __slots__ = ('u', 'v', 'radius_px', 'score', 'stage', 'fill', 'area_px', 'mask',
+                 'mask_origin', 'mask_scale', 'hue_angle', 'chroma', 'behind')
+
+    def __init__(self, u, v, radius_px, score, mask=None, mask_origin=(0, 0), mask_scale=1.0,
+                 fill=1.0, area_px=0.0, hue_angle=float('nan'), chroma=float('nan'),
+                 behind=False):
+        self.u = float(u)
+        self.v = float(v)
+        self.radius_px = float(radius_px)
+        self.score = float(score)
+        self.stage = stage_of(self.score)
+        self.mask = mask                  # bool crop of the fruit part at mask_scale
+        self.mask_origin = mask_origin    # (x, y) of the crop in mask_scale pixels
+        self.mask_scale = mask_scale
+        self.fill = float(fill)
+        self.area_px = float(area_px)
+        self.hue_angle = float(hue_angle)
+        self.chroma = float(chroma)
+        self.behind = bool(behind)        # seen behind a fruit in front (split off its region)
+
+    def box(self, width=None, height=None):
+        """(x, y, w, h) integer box around the fitted circle, clipped to the image if given."""
+        x0 = int(math.floor(self.u - self.radius_px))
+        y0 = int(math.floor(self.v - self.radius_px))
+        x1 = int(math.ceil(self.u + self.radius_px))
+        y1 = int(math.ceil(self.v + self.radius_px))
+        if width is not None:
+            x0, x1 = max(x0, 0), min(x1, width)
+        if height is not None:
+            y0, y1 = max(y0, 0), min(y1, height)
+        return x0, y0, max(x1 - x0, 0), max(y1 - y0, 0)
+
+    def contains(self, u, v):
+        """Vectorised: is full-resolution pixel (u, v) on this fruit's visible part?"""
+        u = np.asarray(u, dtype=np.float64)
+        v = np.asarray(v, dtype=np.float64)
+        finite = np.isfinite(u) & np.isfinite(v)
+        u = np.where(finite, u, -1e6)
+        v = np.where(finite, v, -1e6)
+        inside = (u - self.u) ** 2 + (v - self.v) ** 2 <= self.radius_px ** 2
+        if self.mask is None:
+            return inside
+        mx = np.floor(u * self.mask_scale).astype(np.int64) - self.mask_origin[0]
+        my = np.floor(v * self.mask_scale).astype(np.int64) - self.mask_origin[1]
+        h, w = self.mask.shape
+        ok = inside & (mx >= 0) & (my >= 0) & (mx < w) & (my < h)
+        out = np.zeros(ok.shape, dtype=bool)
+        out[ok] = self.mask[my[ok], mx[ok]]
+        return out
+
+    def __repr__(self):
+        return 'Detection(u=%.1f, v=%.1f, r=%.1f, score=%.2f, %s)' % (
+            self.u, self.v, self.radius_px, self.score, STAGE_NAMES[self.stage])

@@ -1,0 +1,400 @@
+"""Regions of fruit colour split into fruit circles, rospy-free: the shape half of
+vision_pkg.detection (its step 3; the detector's class takes these methods from RegionSplitter).
+
+A region's distance-transform peaks split touching fruit (power diagram); each part's circle is
+fitted to its outline pixels on the convex hull (circle_fit); hypotheses compared by outline
+misfit: one fruit per peak, one fruit seen in pieces, two parts of one fruit joined, a fruit in
+front of another (the rest examined as the fruit behind). Candidates are validated by fill
+ratio and by the share of the part inside the circle.
+"""
+import math
+
+import cv2
+import numpy as np
+
+from vision_pkg.circle_fit import (arc_fit_circle, count_support, hull_distance, outline_cover,
+                                   robust_fit_circle)
+from vision_pkg.fruit import STAGE_THRESHOLDS, Detection
+
+
+class Frame(object):
+    """The working images of one detect() call."""
+
+    __slots__ = ('small', 'hsv', 'scale', 'fill', 'gx', 'gy')
+
+    def __init__(self, small, hsv, scale):
+        self.small, self.hsv, self.scale = small, hsv, scale
+        self.fill = self.gx = self.gy = None
+
+
+class RegionSplitter(object):
+    """Shape methods of TomatoDetector (self.params, and its colour and surface methods)."""
+
+    @staticmethod
+    def _erase_parts(mask, detections, mask_scale):
+        """Clear the visible part (mask crop, grown by a pixel) of each detection from a mask
+        of the input image at `mask_scale`, in place."""
+        kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+        height, width = mask.shape
+        for det in detections:
+            # padded by a pixel so that the growth may leave the crop
+            part = cv2.dilate(np.pad(det.mask.astype(np.uint8), 1), kernel)
+            x0, y0 = det.mask_origin[0] - 1, det.mask_origin[1] - 1
+            ratio = mask_scale / det.mask_scale
+            if abs(ratio - 1.0) > 1e-9:
+                part = cv2.resize(part, None, fx=ratio, fy=ratio,
+                                  interpolation=cv2.INTER_NEAREST)
+                x0, y0 = int(round(x0 * ratio)), int(round(y0 * ratio))
+            h, w = part.shape
+            cx0, cy0 = max(x0, 0), max(y0, 0)
+            cx1, cy1 = min(x0 + w, width), min(y0 + h, height)
+            if cx0 >= cx1 or cy0 >= cy1:
+                continue
+            sub = part[cy0 - y0:cy1 - y0, cx0 - x0:cx1 - x0]
+            mask[cy0:cy1, cx0:cx1][sub > 0] = 0
+
+    def _candidates(self, mask, frame, r_min, r_max, strict, need=None):
+        """Fruit in the regions of a mask; with `need`, only regions of which at least a
+        tenth is in that mask (the strict pass: regions with green-fruit colour)."""
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+        height, width = mask.shape
+        areas = stats[1:, cv2.CC_STAT_AREA]
+        sizes = np.maximum(stats[1:, cv2.CC_STAT_WIDTH], stats[1:, cv2.CC_STAT_HEIGHT])
+        ok = (areas >= math.pi * r_min * r_min * 0.3) & (sizes >= 1.5 * r_min)
+        if need is not None:
+            needed = np.bincount(labels[need > 0], minlength=count)[1:]
+            ok &= needed >= 0.1 * areas
+            # a green region larger than a few of the largest fruit is canopy
+            ok &= areas <= float(self.params['max_green_region']) * math.pi * r_max * r_max
+        order = np.flatnonzero(ok)
+        order = order[np.argsort(-areas[order], kind='stable')][:int(self.params['max_regions'])]
+        detections = []
+        for index in order:
+            label = int(index) + 1
+            x, y, w, h, _ = stats[label]
+            x0, y0 = max(x - 1, 0), max(y - 1, 0)
+            x1, y1 = min(x + w + 1, width), min(y + h + 1, height)
+            comp = fill_holes((labels[y0:y1, x0:x1] == label).astype(np.uint8))
+            detections.extend(self._split_component(comp, (x0, y0), frame, r_min, r_max,
+                                                    (width, height), strict))
+        return detections
+
+    @staticmethod
+    def _skin_pixels(frame, part, ox, oy, cx, cy, radius):
+        """(rows, cols) in the working image of the skin sample of a fruit circle."""
+        height, width = frame.hsv.shape[:2]
+        x0, y0 = max(int(cx + ox - radius), 0), max(int(cy + oy - radius), 0)
+        x1 = min(int(math.ceil(cx + ox + radius)) + 1, width)
+        y1 = min(int(math.ceil(cy + oy + radius)) + 1, height)
+        if x0 >= x1 or y0 >= y1:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        yy, xx = np.mgrid[y0:y1, x0:x1]
+        disc = (xx - (cx + ox)) ** 2 + (yy - (cy + oy)) ** 2 <= radius * radius
+        on_part = np.zeros(disc.shape, dtype=bool)
+        px0, py0 = max(x0 - ox, 0), max(y0 - oy, 0)
+        px1, py1 = min(x1 - ox, part.shape[1]), min(y1 - oy, part.shape[0])
+        if px0 < px1 and py0 < py1:
+            on_part[py0 + oy - y0:py1 + oy - y0, px0 + ox - x0:px1 + ox - x0] = \
+                part[py0:py1, px0:px1]
+        skin = disc & on_part
+        if frame.fill is not None:
+            skin &= frame.fill[y0:y1, x0:x1] == 0
+        rows, cols = np.nonzero(skin)
+        return rows + y0, cols + x0
+
+    def _peaks(self, dist, r_min):
+        """Non-maximum-suppressed distance-transform maxima: list of (x, y, r)."""
+        dil = cv2.dilate(dist, cv2.getStructuringElement(cv2.MORPH_RECT, (5, 5)))
+        ys, xs = np.nonzero((dist >= dil) & (dist >= max(r_min * 0.6, 1.5)))
+        if len(xs) == 0:
+            return []
+        values = dist[ys, xs]
+        order = np.argsort(-values)
+        sep = self.params['peak_separation']
+        peaks = []
+        for i in order:
+            px, py, pr = float(xs[i]), float(ys[i]), float(values[i])
+            if all(math.hypot(px - qx, py - qy) > sep * max(qr, pr) + 1.0
+                   for qx, qy, qr in peaks):
+                peaks.append((px, py, pr))
+                if len(peaks) >= int(self.params['max_peaks']):
+                    break
+        return peaks
+
+    def _split_component(self, comp, origin, frame, r_min, r_max, size, strict):
+        p = self.params
+        small, hsv, scale = frame.small, frame.hsv, frame.scale
+        dist = cv2.distanceTransform(comp, cv2.DIST_L2, 5)
+        peaks = self._peaks(dist, r_min)
+        if not peaks:
+            return []
+        ys, xs = np.nonzero(comp)
+        if len(peaks) == 1:
+            owner = np.zeros(len(xs), dtype=np.int64)
+        else:
+            c = np.array(peaks)
+            power = ((xs[:, None] - c[None, :, 0]) ** 2 + (ys[:, None] - c[None, :, 1]) ** 2
+                     - c[None, :, 2] ** 2)
+            owner = np.argmin(power, axis=1)
+        parts = np.full(comp.shape, -1, dtype=np.int32)
+        parts[ys, xs] = owner
+        # outer boundary of the whole component (pixels with a background 4-neighbour)
+        eroded = cv2.erode(comp, cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3)),
+                           borderType=cv2.BORDER_CONSTANT, borderValue=0)
+        outer = (comp > 0) & (eroded == 0)
+        ox, oy = origin
+        width, height = size
+        # boundary pixels on the image border are not fruit edges
+        gy, gx = np.nonzero(outer)
+        on_border = (gx + ox <= 0) | (gy + oy <= 0) | (gx + ox >= width - 1) | \
+            (gy + oy >= height - 1)
+        outer[gy[on_border], gx[on_border]] = False
+        if frame.fill is not None:
+            # nor is the edge of a bridge (a leaf, sepal or shadow filled between ripe parts)
+            h, w = comp.shape
+            outer &= frame.fill[oy:oy + h, ox:ox + w] == 0
+        # hypothesis A: one fruit per distance-transform peak (power-diagram parts)
+        candidates = []          # (part mask, circle)
+        peak_rs = []
+        for k, (px, py, pr) in enumerate(peaks):
+            part = (parts == k)
+            area = part.sum()
+            if area < math.pi * r_min * r_min * 0.3:
+                continue
+            if strict and area > p['max_area_ratio'] * math.pi * pr * pr:
+                continue      # far larger than its inscribed circle: a leaf or canopy strip
+            circle = self._fit_part(part, outer, pr)
+            if circle is not None:
+                candidates.append((part, circle))
+                peak_rs.append(pr)
+        if len(candidates) > 1 and not strict:
+            candidates = self._join_parts(candidates, peak_rs, outer)
+        if len(peaks) > 1:
+            # hypothesis B: one fruit seen in pieces (a leaf or stem in front of it) also has
+            # several peaks; keep it whole when one circle explains its outline at least as
+            # well as the parts explain theirs
+            whole = self._fit_part(comp > 0, outer, max(pk[2] for pk in peaks))
+            if whole is not None and whole[3] * whole[2] <= p['single_fit_residual_px']:
+                areas = [float(c[0].sum()) for c in candidates]
+                split = sum(a * c[1][3] for a, c in zip(areas, candidates)) / sum(areas) \
+                    if candidates else 1.0
+                pys, pxs = np.nonzero(comp)
+                cx, cy, r = whole[:3]
+                if whole[3] <= split and np.mean(
+                        (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
+                    candidates = [(comp > 0, whole)]
+        results = []
+        in_front = {}        # candidate index -> the part of the fruit in front of it
+        for index, (part, circle) in enumerate(candidates):
+            area = int(part.sum())
+            cx, cy, r = circle[:3]
+            residual = circle[3] if len(circle) > 3 else 1.0
+            if r < r_min or (r > r_max and strict):
+                continue
+            pys, pxs = np.nonzero(part)
+            if not strict and (area < p['min_fill'] * math.pi * r * r or r > r_max):
+                # a circle far larger than the part: the gentle outline of two fruit, one in
+                # front of the other, in one part (one distance-transform peak between them)
+                # fits a circle around both; the front fruit's own arc has about the radius of
+                # the part's inscribed circle
+                refit = self._fit_part(part, outer, float(cv2.distanceTransform(
+                    part.astype(np.uint8), cv2.DIST_L2, 5).max()), r_high=p['refit_radius'])
+                if refit is not None and refit[3] <= p['max_residual_refit']:
+                    cx, cy, r, residual = refit
+            inside = (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2
+            if not strict and np.mean(inside) < p['min_inside'] and \
+                    residual <= p['max_residual_refit'] and r_min <= r <= r_max and \
+                    inside.sum() >= p['min_fill_green'] * math.pi * r * r and \
+                    len(candidates) < 2 * int(p['max_peaks']) and \
+                    outline_cover(outer, cx, cy, r) >= p['min_front_outline']:
+                # the circle follows its arc and is well filled, but much of the part lies
+                # outside: that is a fruit behind it. The front fruit is what its circle holds;
+                # the rest, if large enough, is examined as a part of its own.
+                rest = part.copy()
+                rest[pys[inside], pxs[inside]] = False
+                rest = cv2.morphologyEx(rest.astype(np.uint8), cv2.MORPH_OPEN,
+                                        cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5)))
+                if cv2.countNonZero(rest) >= math.pi * r_min * r_min * 0.3:
+                    rest_circle = self._fit_part(rest > 0, outer, float(
+                        cv2.distanceTransform(rest, cv2.DIST_L2, 5).max()))
+                    if rest_circle is not None:
+                        candidates.append((rest > 0, rest_circle))
+                        in_front[len(candidates) - 1] = part & ~(rest > 0)
+                part = part.copy()
+                part[pys[~inside], pxs[~inside]] = False
+                pxs, pys = pxs[inside], pys[inside]
+                area = int(inside.sum())
+                inside = 1.0
+            else:
+                inside = float(np.mean(inside))
+            if inside < p['min_inside'] and len(candidates) > 1:
+                # a fruit behind a neighbour and cut by leaves: its outline is mostly leaf
+                # edges and the border with the neighbour, which no circle follows; its
+                # visible part still lies inside the fruit, so the smallest circle around
+                # that part stands for it
+                (ex, ey), er = cv2.minEnclosingCircle(
+                    np.column_stack([pxs, pys]).astype(np.float32))
+                if r_min <= er <= r_max:
+                    cx, cy, r, inside = float(ex), float(ey), float(er), 1.0
+            if r > r_max:
+                continue
+            fill = area / (math.pi * r * r)
+            if index in in_front:
+                # the fruit in front hides part of this one's circle: that part is explained
+                yy, xx = np.nonzero(in_front[index])
+                fill += float(np.sum((xx - cx) ** 2 + (yy - cy) ** 2 <= r * r)) / (math.pi * r * r)
+            # skin pixels for colour: inside 0.85 r, on the part, not bridged (sepals), not
+            # highlight or deep shadow
+            sy, sx = self._skin_pixels(frame, part, ox, oy, cx, cy, 0.85 * r)
+            hsv_px = hsv[sy, sx]
+            bgr_px = small[sy, sx]
+            good = (hsv_px[:, 2] > 2 * p['val_min']) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200)) & \
+                (bgr_px.max(axis=1) < 250)
+            if not strict:
+                # a part of ripening colour: its green-graded pixels are not its skin but the
+                # calyx, sepals and stems across it (seen from the calyx side, a star of
+                # them fills the middle of a red fruit and graded it pink)
+                good &= self.pixel_ripeness(hsv_px) >= p['skin_min_ripeness']
+            score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good])
+            min_fill = p['min_fill_green'] if strict or score < STAGE_THRESHOLDS[0] else \
+                p['min_fill']
+            if inside < p['min_inside'] or fill < min_fill:
+                continue
+            if strict and score < p['outline_gate_score'] and not self._round_fruit_surface(
+                    frame, cx + ox, cy + oy, r, hsv_px, circle, fill, inside, score):
+                continue          # green, but not round or no edge all round: a leaf
+            x0 = max(int(math.floor(cx - r)) - 1, 0)
+            y0 = max(int(math.floor(cy - r)) - 1, 0)
+            crop = part[y0:int(math.ceil(cy + r)) + 2, x0:int(math.ceil(cx + r)) + 2]
+            results.append(Detection(
+                (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, r / scale, score,
+                mask=crop.copy(), mask_origin=(x0 + ox, y0 + oy), mask_scale=scale,
+                fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma,
+                behind=index in in_front))
+        return results
+
+    def _join_parts(self, candidates, peak_rs, outer):
+        """Hypothesis C: two neighbouring parts are one fruit (a leaf or calyx notch in its
+        outline made two distance-transform peaks) when their circles overlap, one circle
+        follows their joint outline within `join_residual_px` (median) and holds `min_inside`
+        of their pixels. (Small parts fit their own short arcs almost exactly, so comparing
+        with the parts' fits, as hypothesis B does, would keep them apart.) Greedy, best first."""
+        p = self.params
+        kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+        cands = [(part, circle, pr) for (part, circle), pr in zip(candidates, peak_rs)]
+        while len(cands) > 1:
+            best = None
+            for i in range(len(cands)):
+                grown = None
+                for j in range(i + 1, len(cands)):
+                    (xi, yi, ri), (xj, yj, rj) = cands[i][1][:3], cands[j][1][:3]
+                    if math.hypot(xi - xj, yi - yj) > 0.9 * (ri + rj):
+                        continue      # two whole fruit side by side, not halves of one
+                    if grown is None:
+                        grown = cv2.dilate(cands[i][0].astype(np.uint8), kernel) > 0
+                    if not np.any(grown & cands[j][0]):
+                        continue
+                    union = cands[i][0] | cands[j][0]
+                    fit = self._fit_part(union, outer, max(cands[i][2], cands[j][2]))
+                    if fit is None or fit[3] * fit[2] > p['join_residual_px']:
+                        continue
+                    pys, pxs = np.nonzero(union)
+                    cx, cy, r = fit[:3]
+                    if np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
+                        continue
+                    if best is None or fit[3] < best[0]:
+                        best = (fit[3], i, j, union, fit)
+            if best is None:
+                break
+            _, i, j, union, fit = best
+            joined = (union, fit, max(cands[i][2], cands[j][2]))
+            cands = [c for k, c in enumerate(cands) if k not in (i, j)] + [joined]
+        return [(part, circle) for part, circle, _ in cands]
+
+    @staticmethod
+    def _fit_part(part, outer, peak_r, r_high=3.0):
+        """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
+        lie on its convex hull, radius in [0.8, r_high] x the inscribed radius `peak_r` (+2);
+        residual = median radial misfit / r (1.0 for the fallback)."""
+        part8 = part.astype(np.uint8)
+        # the work is done on the part's bounding box (+1 px): a part of a large cluster is
+        # a small share of its region's crop
+        bx, by, bw, bh = cv2.boundingRect(part8)
+        if bw == 0 or bh == 0:
+            return None
+        x0, y0 = max(bx - 1, 0), max(by - 1, 0)
+        x1, y1 = min(bx + bw + 1, part8.shape[1]), min(by + bh + 1, part8.shape[0])
+        circle = RegionSplitter._fit_crop(part8[y0:y1, x0:x1], outer[y0:y1, x0:x1], peak_r,
+                                          r_high)
+        if circle is None:
+            return None
+        return (circle[0] + x0, circle[1] + y0) + tuple(circle[2:])
+
+    @staticmethod
+    def _fit_crop(part8, outer, peak_r, r_high):
+        """_fit_part() on a crop: part as 0/1 uint8."""
+        ys, xs = np.nonzero((part8 > 0) & outer)
+        moments = cv2.moments(part8, True)
+        if moments['m00'] <= 0:
+            return None
+        mx, my = moments['m10'] / moments['m00'], moments['m01'] / moments['m00']
+        fallback = (mx, my, max(peak_r, math.sqrt(moments['m00'] / math.pi)), 1.0)
+        if len(xs) < 8:
+            return fallback
+        # the hull of a region is the hull of its outline
+        contours = cv2.findContours(part8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)[-2]
+        if not contours:
+            return fallback
+        hull = cv2.convexHull(np.vstack(contours))
+        if hull is None or len(hull) < 3:
+            return fallback
+        on_hull = hull_distance(hull, xs, ys) <= 1.5
+        if on_hull.sum() >= 8:
+            xs, ys = xs[on_hull], ys[on_hull]
+        xs = xs.astype(np.float64)
+        ys = ys.astype(np.float64)
+        r_lo, r_hi = 0.8 * peak_r, r_high * peak_r + 2.0
+        circle = robust_fit_circle(xs, ys)
+        if circle is not None and not r_lo <= circle[2] <= r_hi:
+            circle = None
+        support = count_support(circle, xs, ys) if circle is not None else 0
+        arc = None
+        if support < 0.9 * len(xs):
+            arc = arc_fit_circle(xs, ys, r_lo, r_hi)
+        if arc is not None and count_support(arc, xs, ys) > support:
+            # the outline is partly a straight or concave cut (a leaf or stem in front of the
+            # fruit): the circle that most of the outline follows is the fruit
+            circle = arc
+        if circle is None:
+            return fallback
+        cx, cy, r = circle
+        # the radius must be consistent with the inscribed radius, the centre near the part
+        if r < r_lo or r > r_hi:
+            return fallback
+        if math.hypot(cx - mx, cy - my) > r:
+            return fallback
+        residual = float(np.median(np.abs(np.hypot(xs - cx, ys - cy) - r))) / r
+        return cx, cy, r, residual
+
+
+def share_inside(det, other):
+    """Fraction of det's visible part (its mask; every detection of detect() has one) inside
+    other's fitted circle."""
+    ys, xs = np.nonzero(det.mask)
+    if not len(xs):
+        return 0.0
+    u = (xs + det.mask_origin[0] + 0.5) / det.mask_scale - 0.5
+    v = (ys + det.mask_origin[1] + 0.5) / det.mask_scale - 0.5
+    return float(np.mean((u - other.u) ** 2 + (v - other.v) ** 2 <= other.radius_px ** 2))
+
+
+def fill_holes(comp):
+    """Fill the holes of a 0/1 uint8 region (highlights, dark spots on the skin)."""
+    padded = cv2.copyMakeBorder(comp, 1, 1, 1, 1, cv2.BORDER_CONSTANT, value=0)
+    flood = padded.copy()
+    ffmask = np.zeros((padded.shape[0] + 2, padded.shape[1] + 2), np.uint8)
+    cv2.floodFill(flood, ffmask, (0, 0), 1)
+    holes = flood[1:-1, 1:-1] == 0
+    out = comp.copy()
+    out[holes] = 1
+    return out
