@@ -31,11 +31,11 @@ Parameters (defaults in code and config/image_processing.yaml)
   diagnostics; 0: frames come on demand, no rate check), ~hand_expected_rate (10 Hz; 0 idem),
   ~trigger_period (1.0 s)
 """
-import collections
 import math
 import threading
 
 import actionlib
+import message_filters
 import cv2
 import numpy as np
 import rospy
@@ -56,7 +56,7 @@ from vision_pkg.detection import DEFAULTS as DETECTOR_DEFAULTS
 from vision_pkg.detection import TomatoDetector
 
 BUFF_SIZE = 16 * 1024 * 1024
-#: how many recent right images are kept to pair with a later point cloud
+#: how many recent right images and clouds the synchronizer keeps to pair them by stamp
 IMAGE_HISTORY = 8
 #: wall seconds between checks of a data wait's deadline and cancellation when no data comes
 #: (data, cancellation and shutdown wake the wait at once; the deadline itself is ROS time)
@@ -133,8 +133,7 @@ class ImageProcessingNode(object):
         self.tf_listener = tf2_ros.TransformListener(self.tf_buffer)
 
         self._cond = threading.Condition()
-        self._images = collections.deque(maxlen=IMAGE_HISTORY)   # (stamp, msg, recv_time)
-        self._cloud = None                                         # latest PointCloud2
+        self._pair = None          # (right image, cloud) of the latest pair with equal stamps
         self._right_info = None
         self._hand_image = None
         self._hand_info = None
@@ -148,13 +147,20 @@ class ImageProcessingNode(object):
         self.image_pub = rospy.Publisher(names.ANNOTATED_IMAGE, Image, queue_size=1, latch=True)
         self.stereo_trigger = rospy.Publisher(names.STEREO_TRIGGER, Empty, queue_size=1)
         self.hand_trigger = rospy.Publisher(names.HAND_TRIGGER, Empty, queue_size=1)
+        # the right image and the cloud computed from it carry the same stamp: an exact-time
+        # synchronizer pairs them (IMAGE_HISTORY messages of each are kept for the match)
+        image_sub = message_filters.Subscriber(names.RIGHT_RECT_COLOR, Image, queue_size=1,
+                                               buff_size=BUFF_SIZE, tcp_nodelay=True)
+        cloud_sub = message_filters.Subscriber(names.POINTS2, PointCloud2, queue_size=1,
+                                               buff_size=BUFF_SIZE, tcp_nodelay=True)
+        image_sub.registerCallback(lambda _m: self._freq[names.RIGHT_RECT_COLOR].tick())
+        cloud_sub.registerCallback(lambda _m: self._freq[names.POINTS2].tick())
+        self._sync = message_filters.TimeSynchronizer([image_sub, cloud_sub], IMAGE_HISTORY)
+        self._sync.registerCallback(self._on_stereo_pair)
         self._subs = [
-            rospy.Subscriber(names.RIGHT_RECT_COLOR, Image, self._on_right_image, queue_size=1,
-                             buff_size=BUFF_SIZE, tcp_nodelay=True),
+            image_sub, cloud_sub,
             rospy.Subscriber(names.RIGHT_CAMERA_INFO, CameraInfo, self._on_right_info,
                              queue_size=1),
-            rospy.Subscriber(names.POINTS2, PointCloud2, self._on_cloud, queue_size=1,
-                             buff_size=BUFF_SIZE, tcp_nodelay=True),
             rospy.Subscriber(names.HAND_IMAGE, Image, self._on_hand_image, queue_size=1,
                              buff_size=BUFF_SIZE, tcp_nodelay=True),
             rospy.Subscriber(names.HAND_CAMERA_INFO, CameraInfo, self._on_hand_info,
@@ -220,21 +226,14 @@ class ImageProcessingNode(object):
             self._cond.notify_all()
 
     # -- inputs -------------------------------------------------------------------------------
-    def _on_right_image(self, msg):
-        self._freq[names.RIGHT_RECT_COLOR].tick()
+    def _on_stereo_pair(self, image, cloud):
         with self._cond:
-            self._images.append(msg)
+            self._pair = (image, cloud)
             self._cond.notify_all()
 
     def _on_right_info(self, msg):
         with self._cond:
             self._right_info = msg
-
-    def _on_cloud(self, msg):
-        self._freq[names.POINTS2].tick()
-        with self._cond:
-            self._cloud = msg
-            self._cond.notify_all()
 
     def _on_hand_image(self, msg):
         self._freq[names.HAND_IMAGE].tick()
@@ -273,13 +272,10 @@ class ImageProcessingNode(object):
     def _stereo_pair(self, goal, since):
         """(image msg, cloud msg, right camera_info) with equal stamps, stamped at/after since."""
         def ready():
-            cloud = self._cloud
-            if cloud is None or self._right_info is None or cloud.header.stamp < since:
+            pair = self._pair
+            if pair is None or self._right_info is None or pair[1].header.stamp < since:
                 return None
-            for msg in reversed(self._images):
-                if msg.header.stamp == cloud.header.stamp:
-                    return msg, cloud, self._right_info
-            return None
+            return pair[0], pair[1], self._right_info
         return self._wait(ready, goal, 'stereo image + point cloud pair with matching stamps%s'
                           % (' received after the request' if since.to_sec() > 0 else '')
                           + ' on %s and %s' % (names.RIGHT_RECT_COLOR, names.POINTS2),
