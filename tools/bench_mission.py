@@ -6,29 +6,233 @@ figure beside the paper's "< 35 s" (Liu, Gong and Zhang: average picking time un
 no more than three targets are in view).
 
   python tools/bench_mission.py [--scenario three_targets --scenario default ...]
+  python tools/bench_mission.py --compare [--repeat N] [--scenario ...]
+
+--compare runs both task-planner schedules (`paper`, `pipelined`) on the same scenarios in one
+run and prints, per scenario and overall, the mean s/fruit (sim) of each and their ratio
+(pipelined / paper), whether the same simulated fruit ended in the box with nothing damaged,
+each schedule's motion-time lower bound (per picked fruit, of the arm moves actually sent in its
+cycle, the minimal trapezoidal times at robot.yaml's limits summed per arm, the larger arm's)
+and its cycle's ratio to it, and the mean time per picked fruit spent in each state label (the
+states of an overlap run at the same time, so they add up to more than the cycle).
 """
 import argparse
+import json
 import os
 import re
 import subprocess
 import sys
+import tempfile
 
 DEFAULT_SCENARIOS = ['three_targets', 'default']
+SCHEDULES = ('paper', 'pipelined')
 LINE = re.compile(r'^mission: picked (\d+) of (\d+) ripe reachable, damaged (\d+), skipped (\d+), '
                   r'mean cycle (\S+) s/fruit \(sim\), wall (\d+) s$')
+#: harvest_sim's SimFruit.COLLECTED, DROPPED, DAMAGED
+COLLECTED, DROPPED, DAMAGED = 3, 4, 5
+PICKED = 'picked'   # a pick record's outcome (tools/run_demo.py --json)
 
 
-def run_one(name, time_scale, timeout):
-    """One mission through run_demo.py in its own process (rospy cannot change masters)."""
+def run_one(name, time_scale, timeout, schedule=None, json_path=None, log=None):
+    """One mission through run_demo.py in its own process (rospy cannot change masters):
+    the groups of its closing line, or None."""
     demo = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'run_demo.py')
-    out = subprocess.run([sys.executable, demo, '--scenario', name, '--time-scale', str(time_scale),
-                          '--timeout', str(timeout), '--log', 'bench_%s.log' % name],
-                         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, universal_newlines=True)
+    cmd = [sys.executable, demo, '--scenario', name, '--time-scale', str(time_scale),
+           '--timeout', str(timeout), '--log', log or 'bench_%s.log' % name]
+    if schedule:
+        cmd += ['--schedule', schedule]
+    if json_path:
+        cmd += ['--json', json_path]
+    out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                         universal_newlines=True)
     for line in out.stdout.splitlines():
         m = LINE.match(line.strip())
         if m:
             return m.groups()
     return None
+
+
+# --- the comparison (pure: runs in, figures out) -------------------------------------------------
+def picked_cycles(run):
+    """Cycle times [s, sim] of the fruit a run's executive recorded picked."""
+    return [r['cycle_time'] for r in run['records'] if r['outcome'] == PICKED]
+
+
+def mean(values):
+    return sum(values) / len(values) if values else None
+
+
+def in_box(run):
+    """Ids of the simulated fruit in the box at the end of a run."""
+    return sorted(k for k, v in run['fruit_states'].items() if v == COLLECTED)
+
+
+def damaged(run):
+    return sorted(k for k, v in run['fruit_states'].items() if v in (DROPPED, DAMAGED))
+
+
+def state_means(runs):
+    """{state label: mean seconds per picked fruit} over the picked fruit of `runs`."""
+    totals, fruit = {}, 0
+    for run in runs:
+        for r in run['records']:
+            if r['outcome'] != PICKED:
+                continue
+            fruit += 1
+            for name, d in zip(r['states'], r['durations']):
+                totals[name] = totals.get(name, 0.0) + d
+    return dict((k, v / fruit) for k, v in totals.items()) if fruit else {}
+
+
+def move_duration(distance, speed, acceleration):
+    """Rest-to-rest trapezoid (or triangle) time over |distance| (motion_pkg's profile)."""
+    d = abs(distance)
+    if d == 0.0:
+        return 0.0
+    if d >= speed * speed / acceleration:
+        return d / speed + speed / acceleration
+    return 2.0 * (d / acceleration) ** 0.5
+
+
+def motion_bound(run, limits, home):
+    """Mean over the picked fruit of a run of the motion-time lower bound: of the arm moves sent
+    during the fruit's cycle (the executive's and the visual servo's, in order, each from where
+    the previous one of its arm ended; the arms start at `home`), the minimal trapezoidal times
+    at robot.yaml's limits (`limits`: {axis: (speed, acceleration)}) summed per arm, the larger
+    of the two arms (a waist move counts for both): no schedule moves an arm faster."""
+    pos = {'left': list(home['left']), 'right': list(home['right'])}
+    waist = 0.0
+    timed = []
+    for mv in sorted(run.get('moves', []), key=lambda m: m['t']):
+        arm, dur = mv['arm'], 0.0
+        if mv['positions']:
+            for j, (a, b) in enumerate(zip(pos[arm], mv['positions'][:3])):
+                speed, acc = limits['%s_%s' % (arm, ('lift', 'boom', 'forearm')[j])]
+                dur = max(dur, move_duration(b - a, speed, acc))
+            pos[arm] = list(mv['positions'][:3])
+        turned = mv.get('waist') is not None
+        if turned:
+            dur = max(dur, move_duration(mv['waist'] - waist, *limits['waist']))
+            waist = mv['waist']
+        timed.append((mv['t'], arm, dur, turned))
+    bounds = []
+    for r in run['records']:
+        if r['outcome'] != PICKED or 'end' not in r:
+            continue
+        start = r['end'] - r['cycle_time']
+        sums = {'left': 0.0, 'right': 0.0}
+        for t, arm, dur, turned in timed:
+            if start <= t <= r['end']:
+                for a in (('left', 'right') if turned else (arm,)):
+                    sums[a] += dur
+        bounds.append(max(sums.values()))
+    return bounds
+
+
+def robot_limits():
+    """{axis: (speed, acceleration)} from visualization_pkg's robot.yaml, the arms' home joints
+    from control_pkg's executive.yaml."""
+    import rospkg
+    import yaml
+    pack = rospkg.RosPack()
+    with open(os.path.join(pack.get_path('visualization_pkg'), 'config', 'robot.yaml')) as f:
+        motion = yaml.safe_load(f)['motion']
+    limits = {}
+    for arm in ('left', 'right'):
+        for j in ('lift', 'boom', 'forearm'):
+            limits['%s_%s' % (arm, j)] = (motion['speed'][j], motion['acceleration'][j])
+    limits['waist'] = (motion['speed']['waist'], motion['acceleration']['waist'])
+    with open(os.path.join(pack.get_path('control_pkg'), 'config', 'executive.yaml')) as f:
+        home = yaml.safe_load(f)['home']
+    return limits, home
+
+
+def compare(runs):
+    """runs: {(scenario, schedule): [run, ...]} -> rows per scenario and the overall figures:
+    {'rows': [(scenario, {schedule: mean s/fruit}, ratio, same_fruit, damaged)],
+     'overall': {schedule: mean s/fruit}, 'ratio': pipelined / paper}."""
+    scenarios = []
+    for scenario, _ in runs:
+        if scenario not in scenarios:
+            scenarios.append(scenario)
+    rows, cycles = [], dict((s, []) for s in SCHEDULES)
+    for scenario in scenarios:
+        means, boxes, broken = {}, {}, []
+        for schedule in SCHEDULES:
+            got = runs.get((scenario, schedule), [])
+            c = [t for run in got for t in picked_cycles(run)]
+            cycles[schedule] += c
+            means[schedule] = mean(c)
+            boxes[schedule] = set(tuple(in_box(run)) for run in got)
+            broken += [d for run in got for d in damaged(run)]
+        same = len(boxes['paper'] | boxes['pipelined']) == 1
+        ratio = (means['pipelined'] / means['paper']
+                 if means['paper'] and means['pipelined'] is not None else None)
+        rows.append((scenario, means, ratio, same, sorted(set(broken))))
+    overall = dict((s, mean(cycles[s])) for s in SCHEDULES)
+    ratio = (overall['pipelined'] / overall['paper']
+             if overall['paper'] and overall['pipelined'] is not None else None)
+    return {'rows': rows, 'overall': overall, 'ratio': ratio}
+
+
+def _fmt(value, spec='%.1f'):
+    return 'n/a' if value is None else spec % value
+
+
+def print_comparison(runs, out=sys.stdout):
+    result = compare(runs)
+    out.write('%-16s %12s %12s %8s %11s %s\n' % ('scenario', 'paper [s]', 'pipelined [s]',
+                                                'ratio', 'same fruit', 'damaged'))
+    for scenario, means, ratio, same, broken in result['rows']:
+        out.write('%-16s %12s %12s %8s %11s %s\n' % (
+            scenario, _fmt(means['paper']), _fmt(means['pipelined']), _fmt(ratio, '%.2f'),
+            'yes' if same else 'NO', ', '.join(broken) or 'none'))
+    o = result['overall']
+    out.write('mean s/fruit (sim): paper %s, pipelined %s, ratio pipelined/paper %s\n' % (
+        _fmt(o['paper']), _fmt(o['pipelined']), _fmt(result['ratio'], '%.2f')))
+    try:
+        limits, home = robot_limits()
+    except Exception as exc:  # noqa: BLE001 - the bound is an extra: say why it is missing
+        out.write('no motion-time lower bound: %s\n' % exc)
+    else:
+        for schedule in SCHEDULES:
+            picked = [r for (_, sch), rs in runs.items() if sch == schedule for r in rs]
+            bounds = [b for run in picked for b in motion_bound(run, limits, home)]
+            cyc = mean([t for run in picked for t in picked_cycles(run)])
+            out.write('%-9s motion-time lower bound %s s/fruit (sim), cycle / bound %s\n' % (
+                schedule, _fmt(mean(bounds), '%.2f'),
+                _fmt(cyc / mean(bounds) if bounds and cyc and mean(bounds) else None, '%.2f')))
+    states = dict((s, state_means([r for (_, sch), rs in runs.items() if sch == s for r in rs]))
+                  for s in SCHEDULES)
+    labels = sorted(set(states['paper']) | set(states['pipelined']))
+    out.write('state time per picked fruit [s, sim] (overlapping states count each):\n')
+    for label in labels:
+        out.write('  %-22s %8s %8s\n' % (label, _fmt(states['paper'].get(label), '%.2f'),
+                                         _fmt(states['pipelined'].get(label), '%.2f')))
+    return result
+
+
+def run_compare(scenarios, repeat, time_scale, timeout):
+    runs = {}
+    tmp = tempfile.mkdtemp(prefix='bench_mission_')
+    for scenario in scenarios:
+        for i in range(repeat):
+            for schedule in SCHEDULES:
+                path = os.path.join(tmp, '%s_%s_%d.json' % (scenario, schedule, i))
+                got = run_one(scenario, time_scale, timeout, schedule, path,
+                              log='bench_%s_%s.log' % (scenario, schedule))
+                if got is None or not os.path.exists(path):
+                    print('%-16s %-10s failed: see bench_%s_%s.log' % (scenario, schedule,
+                                                                       scenario, schedule))
+                    continue
+                with open(path) as stream:
+                    runs.setdefault((scenario, schedule), []).append(json.load(stream))
+                picked, rr, dmg, _, cycle, wall = got
+                print('%-16s %-10s picked %s of %s, damaged %s, mean cycle %s s/fruit (sim), '
+                      'wall %s s' % (scenario, schedule, picked, rr, dmg, cycle, wall))
+                sys.stdout.flush()
+    result = print_comparison(runs)
+    return 0 if result['ratio'] is not None else 1
 
 
 def main():
@@ -37,7 +241,14 @@ def main():
     parser.add_argument('--time-scale', type=float, default=20.0,
                         help="sim.launch's time scale (the clock runs at real time while nothing moves)")
     parser.add_argument('--timeout', type=float, default=900.0, help='wall seconds per mission')
+    parser.add_argument('--compare', action='store_true',
+                        help='both schedules (paper, pipelined) on the same scenarios')
+    parser.add_argument('--repeat', type=int, default=1, help='--compare: missions per scenario '
+                        'and schedule')
     args = parser.parse_args()
+    if args.compare:
+        return run_compare(args.scenario or DEFAULT_SCENARIOS, max(1, args.repeat),
+                           args.time_scale, args.timeout)
     weighted, fruit = 0.0, 0
     print('%-16s %8s %8s %8s %10s %16s' % ('scenario', 'picked', 'ripe+r', 'damaged', 'wall [s]', 'cycle [s/fruit]'))
     for name in args.scenario or DEFAULT_SCENARIOS:
@@ -45,8 +256,8 @@ def main():
         if got is None:
             print('%-16s failed: see bench_%s.log' % (name, name))
             continue
-        picked, rr, damaged, _, cycle, wall = got
-        print('%-16s %8s %8s %8s %10s %16s' % (name, picked, rr, damaged, wall, cycle))
+        picked, rr, damaged_count, _, cycle, wall = got
+        print('%-16s %8s %8s %8s %10s %16s' % (name, picked, rr, damaged_count, wall, cycle))
         if cycle != 'n/a' and int(picked):
             weighted += float(cycle) * int(picked)
             fruit += int(picked)

@@ -23,6 +23,7 @@ import sys
 import threading
 import time
 
+from control_pkg.mission import SCHEDULES
 from harvest_sim.instance import free_port, sim_launch_args
 
 DEFAULT_TIMEOUT = 900.0   # wall seconds
@@ -75,6 +76,7 @@ def wait_fruits_at_rest(launch, timeout=30.0):
                     rospy.get_time() < deadline and \
                     ('fruits' not in latest or fruit_in_hand(latest['fruits'])):
                 cond.wait(0.5)
+            return latest.get('fruits')
     finally:
         sub.unregister()
 
@@ -111,6 +113,26 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
         state['summary'] = json.loads(msg.data)
         done.set()
 
+    records = []
+    moves = []
+
+    def on_move(msg):
+        """Every arm move sent (the executive's and the visual servo's), for the benchmark's
+        motion-time lower bound (tools/bench_mission.py)."""
+        goal = msg.goal
+        moves.append({'t': msg.header.stamp.to_sec() or msg.goal_id.stamp.to_sec(),
+                      'arm': 'left' if goal.arm else 'right',
+                      'positions': list(goal.target_joint.positions),
+                      'waist': float(goal.waist) if getattr(goal, 'move_waist', False) else None})
+
+    def on_record(msg):
+        names = {msg.OUTCOME_PICKED: 'picked', msg.OUTCOME_UNREACHABLE: 'unreachable',
+                 msg.OUTCOME_LOST: 'lost', msg.OUTCOME_FAILED: 'failed'}
+        records.append({'target_id': msg.target_id, 'outcome': names.get(msg.outcome, 'failed'),
+                        'end': msg.stamp.to_sec(),
+                        'cycle_time': msg.cycle_time, 'states': list(msg.state_names),
+                        'durations': list(msg.state_durations)})
+
     try:
         deadline = time.time() + 60.0
         while not rosgraph.is_master_online(master):
@@ -125,6 +147,11 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
         if not rospy.core.is_initialized():
             rospy.init_node('harvest_demo', anonymous=True, disable_signals=True)
         sub = rospy.Subscriber('/mission/summary', String, on_summary)
+        from harvest_msgs.msg import PickRecord
+        rec_sub = rospy.Subscriber('/mission/pick_records', PickRecord, on_record, queue_size=100)
+        from harvest_msgs.msg import MoveRobotActionGoal
+        move_sub = rospy.Subscriber('/move_robot/goal', MoveRobotActionGoal, on_move,
+                                    queue_size=100)
         first = None              # (wall, sim) of the first tick of the simulated clock seen
         while not done.wait(0.05 if first is None else 0.5):
             if first is None and rospy.get_time() > 0.0:
@@ -136,19 +163,34 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
                 raise RuntimeError('no mission summary within %.0f s; see %s' % (timeout, log_path))
         end = (time.time(), rospy.get_time())
         sub.unregister()
+        rec_sub.unregister()
+        move_sub.unregister()
         wall = end[0] - wall_start
         if first is None:
             first = end
         sim_span, wall_span = end[1] - first[1], end[0] - first[0]
-        wait_fruits_at_rest(launch)
+        fruits = wait_fruits_at_rest(launch) or []
         from harvest_sim.srv import GetSimSummary
         rospy.wait_for_service('/sim/get_summary', timeout=10.0)
         truth = rospy.ServiceProxy('/sim/get_summary', GetSimSummary)()
         return {'summary': state['summary'], 'truth': truth, 'wall': wall, 'sim_span': sim_span,
-                'wall_span': wall_span}
+                'wall_span': wall_span, 'records': list(records), 'moves': list(moves),
+                'fruit_states': dict((f.id, int(f.state)) for f in fruits)}
     finally:
         stop_launch(launch)
         log.close()
+
+
+def write_run(path, run, scenario, schedule):
+    """The run as JSON for tools/bench_mission.py."""
+    truth = run['truth']
+    ripe_reachable, harvested, damaged = ground_truth_counts(truth)
+    data = {'scenario': scenario, 'schedule': schedule or '', 'summary': run['summary'],
+            'truth': {'ripe_reachable': ripe_reachable, 'harvested': harvested, 'damaged': damaged},
+            'wall': run['wall'], 'records': run['records'], 'moves': run['moves'],
+            'fruit_states': run['fruit_states']}
+    with open(path, 'w') as stream:
+        json.dump(data, stream, indent=1)
 
 
 def stop_launch(launch, grace=30.0):
@@ -174,12 +216,19 @@ def main():
                         default=float(os.environ.get('HARVEST_TIME_SCALE', DEFAULT_TIME_SCALE)))
     parser.add_argument('--timeout', type=float, default=DEFAULT_TIMEOUT, help='wall seconds')
     parser.add_argument('--log', default='demo.log', help='roslaunch output file')
+    parser.add_argument('--json', default='',
+                        help='also write the run (summary, ground truth, pick records, the state of '
+                             'every simulated fruit) to this file (tools/bench_mission.py)')
+    parser.add_argument('--schedule', choices=SCHEDULES,
+                        default=os.environ.get('HARVEST_SCHEDULE') or None,
+                        help="the task planner's schedule (default: control_pkg executive.yaml's)")
     args = parser.parse_args()
-    print('[demo] roslaunch harvest_bringup sim.launch scenario:=%s time_scale:=%g (log: %s)'
-          % (args.scenario, args.time_scale, args.log))
+    extra = ['schedule:=%s' % args.schedule] if args.schedule else []
+    print('[demo] roslaunch harvest_bringup sim.launch scenario:=%s time_scale:=%g%s (log: %s)'
+          % (args.scenario, args.time_scale, ''.join(' ' + e for e in extra), args.log))
     sys.stdout.flush()
     try:
-        run = run_mission(args.scenario, args.time_scale, args.timeout, args.log)
+        run = run_mission(args.scenario, args.time_scale, args.timeout, args.log, extra)
     except RuntimeError as exc:
         print('[demo] %s' % exc)
         return 1
@@ -197,6 +246,8 @@ def main():
                                       truth.dropped, truth.damaged))
     print('speed: %.0f s simulated in %.1f s wall = %.1fx real time' % (
         run['sim_span'], run['wall_span'], run['sim_span'] / max(run['wall_span'], 1e-6)))
+    if args.json:
+        write_run(args.json, run, args.scenario, args.schedule)
     from control_pkg.mission import summary_line
     print(summary_line(harvested, ripe_reachable, damaged, skipped, summary['mean_cycle_time'], run['wall']))
     return 0 if summary['outcome'] == 'succeeded' else 1

@@ -14,9 +14,15 @@ def test_defaults_come_from_the_package_yaml():
     defaults = executive_node.load_defaults()
     for key in ('base_frame', 'server_wait_timeout', 'peduncle_gap', 'left_approach_standoff',
                 'right_pulls', 'pull_clearance', 'cut_clearance', 'relocate_tolerance', 'actions',
-                'timeouts', 'retries', 'home', 'collection_box_right', 'self_test_components'):
+                'timeouts', 'retries', 'home', 'collection_box_right', 'self_test_components',
+                'schedule', 'overlap_margin', 'concurrent_arm_moves'):
         assert key in defaults, key
     assert not hasattr(executive_node, 'DEFAULTS'), 'no second copy of the defaults in code'
+
+
+def test_the_default_schedule_is_the_papers():
+    assert executive_node.load_defaults()['schedule'] == 'paper'
+    assert executive_node.merged_config({'schedule': 'pipelined'})['schedule'] == 'pipelined'
 
 
 def test_overrides_merge_one_level_deep():
@@ -33,6 +39,8 @@ def test_overrides_merge_one_level_deep():
     ({'right_pulls': [[-0.08, 0.0]]}, 'right_pulls'),
     ({'cut_clearance': -0.01}, 'cut_clearance'),
     ({'relocate_tolerance': math.inf}, 'relocate_tolerance'),
+    ({'schedule': 'fast'}, 'schedule'),
+    ({'overlap_margin': -0.01}, 'overlap_margin'),
 ])
 def test_bad_overrides_are_refused_naming_the_field(overrides, field):
     with pytest.raises(ValueError, match=field):

@@ -49,3 +49,11 @@ def test_every_robot_yaml_reader_is_required():
     missing = [name for name in ROBOT_YAML_READERS if name not in nodes]
     assert missing == []
     assert [name for name in ROBOT_YAML_READERS if not nodes[name].required] == []
+
+
+def test_schedule_reaches_the_task_planner_and_its_default_is_executive_yamls():
+    # an empty `schedule` leaves control_pkg's executive.yaml (the only place defaults live)
+    assert load().params['/task_planner/schedule'].value == 'paper'
+    assert load('schedule:=pipelined').params['/task_planner/schedule'].value == 'pipelined'
+    doc, default = get_args([SIM_LAUNCH])['schedule']
+    assert doc and default == ''

@@ -30,6 +30,9 @@ ROOT (StateMachine)
     ESTOP_MONITOR                        ends when an emergency stop is requested
   DO_STOP                                emergency stop: axes halted, mission paused until resume
 
+That is `schedule: paper` (the default); `schedule: pipelined` replaces RIGHT_ARM, LEFT_ARM and
+PLACE with versions where the arms overlap (executive_pipelined.py, a subclass of `_Graph`).
+
 This module only builds that graph, top-down, one container per function. The states of our
 own are in executive_states.py, the goals and the reading of results in executive_goals.py
 (pure, unit-tested), the plan and the record in mission.py; `_Callbacks` is the glue between
@@ -53,8 +56,14 @@ _ARM_OUTCOMES = ['succeeded', 'unreachable', 'lost', 'aborted', 'preempted']
 
 
 def build_state_machine(context, estop_event, resume_event):
-    """Build the ROOT state machine. `context.config` is a dict (see config/executive.yaml)."""
-    g = _Graph(context)
+    """Build the ROOT state machine. `context.config` is a dict (see config/executive.yaml);
+    its `schedule` chooses the graph of one target: `paper` (Figure 14, this module) or
+    `pipelined` (the arms overlap, executive_pipelined.py)."""
+    if context.config.get('schedule', mission_lib.SCHEDULE_PAPER) == mission_lib.SCHEDULE_PIPELINED:
+        from control_pkg.executive_pipelined import PipelinedGraph
+        g = PipelinedGraph(context)
+    else:
+        g = _Graph(context)
     monitor = EstopMonitor(estop_event)
     run = smach.Concurrence(outcomes=['succeeded', 'aborted', 'preempted', 'estop'],
                             default_outcome='aborted', child_termination_cb=lambda outcomes: True,
@@ -90,17 +99,25 @@ def _scan_outcome(outcomes):
 
 class _Graph(object):
     """The containers of Figure 14, each built by one method, top-down."""
+    #: userdata PICK_TARGET reads from MISSION
+    pick_keys = ('target',)
+    #: actions whose goals move an arm: they take turns through `gate` when there is one
+    gated = ('move_robot', 'visual_servo')
 
-    def __init__(self, context):
+    def __init__(self, context, callbacks=None):
         self.context = context
         self.cfg = context.config
-        self.cb = _Callbacks(context)
+        self.cb = callbacks or _Callbacks(context)
+        self.gate = None
         self.pulls = [tuple(float(v) for v in p) for p in self.cfg.get('right_pulls', [])]
         self.relocate = float(self.cfg.get('relocate_tolerance', 0.0)) > 0.0
         self.check_cut = bool(self.cfg.get('check_cut_before_suction', False))
 
-    def action(self, label, key, spec, **kwargs):
+    def action(self, label, key, spec, arm=None, **kwargs):
+        """An action state of `key` (config `actions`); `arm`: the arm its goal moves, if any."""
         cfg = self.cfg
+        if self.gate is not None and key in self.gated:
+            kwargs.update(gate=self.gate, gate_arm='left' if arm == ARM_LEFT else 'right')
         return HarvestActionState(self.context, label, cfg['actions'][key], spec,
                                   retries=cfg['retries'].get(key, 0),
                                   exec_timeout=cfg['timeouts'].get(key, 30.0),
@@ -111,7 +128,7 @@ class _Graph(object):
                            goal=EndEffectorGoal(command=command), result_cb=self.cb.ee_result)
 
     def move_fixed(self, label, arm, positions):
-        return self.action(label, 'move_robot', MoveRobotAction,
+        return self.action(label, 'move_robot', MoveRobotAction, arm=arm,
                            goal=goals.move_goal(arm, positions), result_cb=self.cb.move_result)
 
     def add_reach(self, suffix, goal_cb, result_cb, arm, then, unreachable, keys=('target',),
@@ -123,7 +140,7 @@ class _Graph(object):
             outcomes=['unreachable']),
             transitions={'succeeded': 'DO_MOVE_ROBOT' + suffix, 'unreachable': unreachable})
         smach.StateMachine.add('DO_MOVE_ROBOT' + suffix, self.action(
-            'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, goal_cb=self.cb.move_goal(arm),
+            'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=arm, goal_cb=self.cb.move_goal(arm),
             input_keys=['joint_goal'] + list(move_keys), output_keys=list(move_out),
             result_cb=move_result_cb or self.cb.move_result),
             transitions={'succeeded': then})
@@ -182,7 +199,7 @@ class _Graph(object):
     # --- one target ----------------------------------------------------------------------------
     def pick_target(self):
         sm = smach.StateMachine(outcomes=['picked', 'unreachable', 'lost', 'aborted', 'preempted'],
-                                input_keys=['target'])
+                                input_keys=list(self.pick_keys))
         add = smach.StateMachine.add
         with sm:
             if self.check_cut:
@@ -247,7 +264,8 @@ class _Graph(object):
             self.add_reach('', cb.cutting_goal, cb.kinematics_result, ARM_LEFT,
                            then='DO_VISUALSERVOING', unreachable='unreachable')
             smach.StateMachine.add('DO_VISUALSERVOING', self.action(
-                'DO_VISUALSERVOING', 'visual_servo', VisualServoAction, goal_cb=cb.servo_goal,
+                'DO_VISUALSERVOING', 'visual_servo', VisualServoAction, arm=ARM_LEFT,
+                goal_cb=cb.servo_goal,
                 input_keys=['target'], result_cb=cb.servo_result),
                 transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR', 'aborted': 'lost'})
             smach.StateMachine.add('DO_MOVE_ENDEFFECTOR',
@@ -358,9 +376,9 @@ class _Callbacks(object):
             return 'unreachable'
         return None
 
-    def move_goal(self, arm):
+    def move_goal(self, arm, key='joint_goal'):
         def cb(ud, goal):
-            return goals.move_goal(arm, ud.joint_goal)
+            return goals.move_goal(arm, ud[key])
         return cb
 
     def move_result(self, ud, status, result):

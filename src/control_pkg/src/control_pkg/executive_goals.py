@@ -16,6 +16,14 @@ from control_pkg.mission import distance
 
 ARM_RIGHT = False   # MoveRobot/Kinematics `arm`: false = right (suction) arm
 ARM_LEFT = True     # true = left (cutting) arm
+#: m from the fruit top to the cut point when the suction goal asks the kinematics for a waist
+#: angle that serves the cutting hand too (executive.yaml `peduncle_gap`, its default)
+PEDUNCLE_GAP = 0.01
+
+# Waist: the suction goal lets the kinematics turn the waist (solve_waist) to an angle where the
+# cutting hand reaches the peduncle too; a result that asks for it (move_waist) comes out of
+# kinematics_solution as [lift, boom, forearm, waist], and move_goal turns the waist with the arm
+# for such a 4-value joint goal. Every other goal keeps the waist where it is (the fruit is held).
 
 
 # --- points and targets ------------------------------------------------------------------------
@@ -59,10 +67,26 @@ def pulled(target, pull):
     return moved
 
 
+def target_after_pull(target, pull, pull_goal):
+    """The target where the solved pull will leave it (as it is when no pull was solved:
+    `pull_goal` empty)."""
+    return pulled(target, pull) if pull_goal else target
+
+
 # --- goals -------------------------------------------------------------------------------------
-def suction_kinematics_goal(target):
-    """Right arm: the suction sleeve on the fruit surface that faces the arm."""
-    return KinematicsGoal(target=target.pick_point, arm=ARM_RIGHT, standoff=float(target.radius))
+def suction_kinematics_goal(target, peduncle_gap=PEDUNCLE_GAP, waist=True):
+    """Right arm: the suction sleeve on the fruit surface that faces the arm. Out of reach where
+    the waist is, the waist may turn (`waist` False: it may not, e.g. while the left arm works
+    elsewhere), to an angle where the cutting hand reaches the peduncle (`peduncle_gap` above
+    the fruit's top) too."""
+    if not waist:
+        return KinematicsGoal(target=target.pick_point, arm=ARM_RIGHT,
+                              standoff=float(target.radius))
+    return KinematicsGoal(target=target.pick_point, arm=ARM_RIGHT, standoff=float(target.radius),
+                          solve_waist=True, check_other=True,
+                          other_target=point_goal(target.pick_point,
+                                                  dz=target.radius + peduncle_gap),
+                          other_standoff=0.0)
 
 
 def cutting_kinematics_goal(target, peduncle_gap, approach):
@@ -72,6 +96,19 @@ def cutting_kinematics_goal(target, peduncle_gap, approach):
                           arm=ARM_LEFT, standoff=approach)
 
 
+def cut_check_kinematics_goal(target, peduncle_gap, approach):
+    """The cutting hand's goal of the check before suction (`check_cut_before_suction`): like
+    cutting_kinematics_goal, but the waist may turn, to an angle where the suction arm reaches
+    the fruit too, so a fruit only a turn of the waist brings in reach is not skipped. Only
+    whether it is reachable counts: nothing moves on this solution."""
+    goal = cutting_kinematics_goal(target, peduncle_gap, approach)
+    goal.solve_waist = True
+    goal.check_other = True
+    goal.other_target = target.pick_point
+    goal.other_standoff = float(target.radius)
+    return goal
+
+
 def pull_kinematics_goal(target, pull):
     """Right arm: the held fruit drawn out by `pull`."""
     return KinematicsGoal(target=point_goal(target.pick_point, *pull), arm=ARM_RIGHT,
@@ -79,7 +116,17 @@ def pull_kinematics_goal(target, pull):
 
 
 def move_goal(arm, positions):
+    """[lift, boom, forearm] of an arm; a 4th value turns the waist there in the same move."""
+    positions = list(positions)
+    if len(positions) == 4:
+        return MoveRobotGoal(target_joint=joint_point(positions[:3]), arm=arm, move_waist=True,
+                             waist=float(positions[3]))
     return MoveRobotGoal(target_joint=joint_point(positions), arm=arm)
+
+
+def waist_goal(angle):
+    """The waist alone to `angle` (rad), both arms where they are."""
+    return MoveRobotGoal(move_waist=True, waist=float(angle))
 
 
 def servo_goal(target):
@@ -110,12 +157,16 @@ def self_test_failure(result):
 
 def kinematics_solution(result):
     """(joint positions, None) when the target is reachable, (None, reason) when not,
-    (None, None) without a result."""
+    (None, None) without a result. The positions are [lift, boom, forearm], with the waist
+    angle as a 4th value when the solution needs the waist turned (move_goal moves it)."""
     if result is None:
         return None, None
     if not result.reachable:
         return None, result.reason
-    return list(result.joint_goal.positions), None
+    joints = list(result.joint_goal.positions)
+    if result.move_waist:
+        joints.append(float(result.waist))
+    return joints, None
 
 
 def move_failure(status, result):

@@ -10,8 +10,10 @@ Node `task_planner`
   Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
               mission/summary (std_msgs/String, JSON totals, latched), ~state (std_msgs/String, latched)
   Introspection: <~introspection_name>/smach/container_structure, container_status, container_init
+  Subscribes (schedule pipelined): joint_states (sensor_msgs/JointState: where the arms are)
   Params: ~mission_id, ~picking_points (list of indices; default all of /track/picking_points),
-    ~autostart (true), ~shutdown_when_done (false), and everything of config/executive.yaml.
+    ~autostart (true), ~shutdown_when_done (false), ~robot_description_yaml (pipelined: robot.yaml,
+    default visualization_pkg's), and everything of config/executive.yaml.
 """
 import math
 import os
@@ -20,6 +22,7 @@ import time
 
 import rospy
 import yaml
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Int32MultiArray, String
 from std_srvs.srv import Trigger, TriggerResponse
 
@@ -82,6 +85,12 @@ def merged_config(overrides, defaults=None):
     for key in ('pull_clearance', 'cut_clearance'):
         if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
             raise ValueError('%s must be a finite number >= 0 (m), got %r' % (key, cfg[key]))
+    if cfg['schedule'] not in mission_lib.SCHEDULES:
+        raise ValueError('schedule must be one of %s, got %r' % (', '.join(mission_lib.SCHEDULES),
+                                                                 cfg['schedule']))
+    margin = cfg['overlap_margin']
+    if not isinstance(margin, (int, float)) or not math.isfinite(float(margin)) or margin < 0:
+        raise ValueError('overlap_margin must be a finite number >= 0 (m), got %r' % (margin,))
     tol = cfg['relocate_tolerance']
     if not isinstance(tol, (int, float)) or not math.isfinite(float(tol)) or float(tol) < 0.0:
         raise ValueError('relocate_tolerance must be a finite number >= 0 (m), got %r' % (tol,))
@@ -121,6 +130,8 @@ class TaskPlanner(object):
         self.context = MissionContext(self.config, self.progress, self.recorder,
                                       publish_event=self.publish_event,
                                       publish_record=self.publish_record, halt=self.halt_axes)
+        if self.config['schedule'] == mission_lib.SCHEDULE_PIPELINED:
+            self._setup_pipelined()
         self.sm = executive.build_state_machine(self.context, self.estop, self.resume)
         self._introspection = IntrospectionServer(rospy.get_param('~introspection_name', 'harvest_executive'),
                                                   self.sm, '/SM_ROOT')
@@ -133,6 +144,26 @@ class TaskPlanner(object):
         self._thread = None
         rospy.on_shutdown(self.on_shutdown)
         rospy.loginfo('task_planner: mission %s ready', self.mission_id)
+
+    def _setup_pipelined(self):
+        """The pipelined schedule's guard needs the robot's geometry (motion_pkg's kinematics,
+        robot.yaml) and where the arms are (joint_states)."""
+        try:
+            from motion_pkg.kinematics import RobotGeometry
+            import rospkg
+            path = rospy.get_param('~robot_description_yaml', '') or os.path.join(
+                rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+            self.context.geometry = RobotGeometry.from_yaml(path)
+        except Exception as exc:  # noqa: BLE001 - without it nothing overlaps, the mission runs
+            rospy.logerr('task_planner: no robot geometry for the pipelined schedule (%s): every '
+                         'step runs in the paper order', exc)
+        rospy.Subscriber('joint_states', JointState, self._joints_cb, queue_size=10)
+        rospy.loginfo('task_planner: pipelined schedule (arm moves %s)',
+                      'concurrent' if self.config['concurrent_arm_moves'] else 'taking turns')
+
+    def _joints_cb(self, msg):
+        if len(msg.name) == len(msg.position):
+            self.context.set_joints(msg.name, msg.position)
 
     def _plan_cb(self, msg):
         self._plan = [int(p) for p in msg.data]

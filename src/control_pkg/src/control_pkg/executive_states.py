@@ -33,6 +33,31 @@ class MissionContext(object):
         self.lock = threading.Lock()
         self.scene = []            # (id, (x, y, z), radius) of every located tomato at this point
         self.gone = set()          # ids picked since that scan
+        # the pipelined schedule (executive_pipelined.py): motion_pkg's robot geometry for the
+        # collision check of overlapping moves, the arms' joint states, the turns of the moves
+        self.geometry = None
+        self.gate = None
+        self._joints = {}
+
+    def set_joints(self, names, positions):
+        """Merge a (partial) joint_states message."""
+        with self.lock:
+            self._joints.update(zip(names, positions))
+
+    def waist(self):
+        """The waist angle (rad) from joint_states, None until known."""
+        with self.lock:
+            value = self._joints.get('waist_joint')
+        return None if value is None else float(value)
+
+    def arm_joints(self, arm):
+        """(lift, boom, forearm) of arm 'left' / 'right' from joint_states, None until known."""
+        names = ['%s_%s_joint' % (arm, j) for j in ('lift', 'boom', 'forearm')]
+        with self.lock:
+            values = [self._joints.get(n) for n in names]
+        if any(v is None for v in values):
+            return None
+        return tuple(float(v) for v in values)
 
     def now(self):
         return rospy.get_time()
@@ -57,15 +82,64 @@ def _status_text(state):
         return ''
 
 
+class MoveGate(object):
+    """Arm moves that must take turns. motion_pkg's move_robot serves one goal at a time (a
+    second goal replaces the first), so with `per_arm` false every arm move, and the visual
+    servo that moves the left arm through it, waits until no other one runs; with `per_arm`
+    (a motion server that runs one goal per arm at once) an arm waits only for itself.
+    A waiting state is woken by its preemption (`wake`), never polled."""
+
+    def __init__(self, per_arm=False):
+        self.per_arm = bool(per_arm)
+        self._cond = threading.Condition()
+        self._busy = set()
+        self._first = None
+
+    def _key(self, arm):
+        return arm if self.per_arm else 'arms'
+
+    def first(self, arm):
+        """Taking turns: `arm` moves first (an overlap's start; its other arm waits for that
+        move even when it asks first); None: whoever asks first. Nothing with `per_arm`."""
+        with self._cond:
+            self._first = None if self.per_arm else arm
+            self._cond.notify_all()
+
+    def acquire(self, arm, cancelled):
+        """Wait for `arm`'s turn; False (nothing taken) as soon as `cancelled()` is true."""
+        key = self._key(arm)
+        with self._cond:
+            while key in self._busy or self._first not in (None, arm):
+                if cancelled():
+                    return False
+                self._cond.wait()
+            if cancelled():
+                return False
+            self._busy.add(key)
+            self._first = None
+            return True
+
+    def release(self, arm):
+        with self._cond:
+            self._busy.discard(self._key(arm))
+            self._cond.notify_all()
+
+    def wake(self):
+        with self._cond:
+            self._cond.notify_all()
+
+
 class HarvestActionState(SimpleActionState):
     """A SimpleActionState with retries, timing into the mission record and a failure reason.
 
     Outcomes: succeeded, aborted, preempted, plus the extra ones given.
     Retries re-send the goal after an `aborted` outcome (not after a preemption or another outcome).
+    With a `gate` (MoveGate) the state waits for `gate_arm`'s turn before its first goal (the
+    wait counts in its time) and gives it back when it ends.
     """
 
     def __init__(self, context, label, action_name, action_spec, retries=0, exec_timeout=30.0,
-                 server_wait_timeout=5.0, **kwargs):
+                 server_wait_timeout=5.0, gate=None, gate_arm=None, **kwargs):
         SimpleActionState.__init__(
             self, action_name, action_spec,
             exec_timeout=rospy.Duration(exec_timeout),
@@ -75,9 +149,30 @@ class HarvestActionState(SimpleActionState):
         self._label = label
         self._retries = max(0, int(retries))
         self._action_name = action_name
+        self._gate = gate
+        self._gate_arm = gate_arm
+
+    def request_preempt(self):
+        SimpleActionState.request_preempt(self)
+        if self._gate is not None:
+            self._gate.wake()
 
     def execute(self, ud):
+        if self._gate is None:
+            return self._execute(ud)
         start = self._context.now()
+        if not self._gate.acquire(self._gate_arm,
+                                  lambda: self.preempt_requested() or rospy.is_shutdown()):
+            self.service_preempt()
+            self._context.recorder.add_state(self._label, max(0.0, self._context.now() - start))
+            return 'preempted'
+        try:
+            return self._execute(ud, start)
+        finally:
+            self._gate.release(self._gate_arm)
+
+    def _execute(self, ud, start=None):
+        start = self._context.now() if start is None else start
         errors_before = len(self._context.recorder.errors)
         outcome = 'aborted'
         for attempt in range(self._retries + 1):
@@ -158,8 +253,12 @@ class ChoosePull(smach.State):
     Output keys: pull
     """
 
-    def __init__(self, context, candidates, clearance, cut_height, cut_clearance):
-        smach.State.__init__(self, outcomes=['pull', 'none'], input_keys=['target'], output_keys=['pull'])
+    def __init__(self, context, candidates, clearance, cut_height, cut_clearance, clear_key=None):
+        """clear_key: an output key set to [] first (the pipelined schedule's pull joints, so
+        none is left from the previous fruit when no pull is chosen)."""
+        keys = ['pull'] + ([clear_key] if clear_key else [])
+        smach.State.__init__(self, outcomes=['pull', 'none'], input_keys=['target'], output_keys=keys)
+        self._clear_key = clear_key
         self._context = context
         self._candidates = candidates
         self._clearance = clearance
@@ -167,6 +266,8 @@ class ChoosePull(smach.State):
         self._cut_clearance = cut_clearance
 
     def execute(self, ud):
+        if self._clear_key:
+            ud[self._clear_key] = []
         t = ud.target
         p = t.pick_point.point
         obstacles = [(xyz, r) for tid, xyz, r in self._context.scene
@@ -183,6 +284,21 @@ class ChoosePull(smach.State):
                       t.id, pull[0], pull[1], pull[2], near or 'none')
         ud.pull = pull
         return 'pull'
+
+
+class Decide(smach.State):
+    """A decision between branches of the graph: `decide(ud)` (the executive's callbacks, over
+    pure functions) returns one of `outcomes`.
+
+    Outcomes: as given. Input keys: as given.
+    """
+
+    def __init__(self, decide, outcomes, input_keys=()):
+        smach.State.__init__(self, outcomes=list(outcomes), input_keys=list(input_keys))
+        self._decide = decide
+
+    def execute(self, ud):
+        return self._decide(ud)
 
 
 class EndFruit(smach.State):

@@ -7,13 +7,19 @@ Params:
       pickable tomatoes (unreachable_left: only the cutting arm cannot reach it)
   ~missing (list of action names): servers NOT started (a component missing at start)
   ~move_duration (float, s): how long a MoveRobot goal takes (preemptable)
-Publishes mock/halt_count (std_msgs/Int32, latched) and mock/goals (std_msgs/String: "<action> <detail>").
+  ~per_arm_moves (bool, false): move_robot runs one goal per arm at once (else one goal: a
+      second replaces the first, as motion_pkg's); publishes "move_robot overlap" on mock/goals
+      when goals of both arms run at the same time
+Publishes mock/halt_count (std_msgs/Int32, latched), mock/goals (std_msgs/String: "<action> <detail>")
+and joint_states (the waist at 0, the arms at their home poses, then at the goal of every finished
+move).
 """
 import threading
 
 import actionlib
 import rospy
 from diagnostic_msgs.msg import DiagnosticStatus
+from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 from std_srvs.srv import Trigger, TriggerResponse
 
@@ -31,6 +37,7 @@ class MockServers(object):
         self.targets = {int(k): v for k, v in rospy.get_param('~targets', {}).items()}
         self.missing = set(rospy.get_param('~missing', []))
         self.move_duration = float(rospy.get_param('~move_duration', 0.05))
+        self.per_arm_moves = bool(rospy.get_param('~per_arm_moves', False))
         self.point = 0
         self.halts = 0
         self.halt_event = threading.Event()
@@ -41,6 +48,10 @@ class MockServers(object):
         self._status_pub = rospy.Publisher('motion_status', DiagnosticStatus, queue_size=1, latch=True)
         self._status_pub.publish(DiagnosticStatus(level=DiagnosticStatus.OK, name='motion', message='ok'))
         self._halt_pub.publish(Int32(data=0))
+        self._joints_pub = rospy.Publisher('joint_states', JointState, queue_size=10, latch=True)
+        self.joints = {'waist_joint': 0.0}
+        for arm, home in (('left', (0.0, 0.7854, 2.3562)), ('right', (0.0, -0.7854, -2.3562))):
+            self.set_arm(arm, home)
         rospy.Service('halt_all', Trigger, self.halt)
         self.servers = []
         for name, spec, cb in [('self_test', StartAction, self.self_test), ('move_base', MoveBaseAction, self.move_base),
@@ -52,10 +63,19 @@ class MockServers(object):
                                ('visual_servo', VisualServoAction, self.visual_servo)]:
             if name in self.missing:
                 continue
+            if name == 'move_robot' and self.per_arm_moves:
+                self.start_per_arm_moves()
+                continue
             server = actionlib.SimpleActionServer(name, spec, execute_cb=cb, auto_start=False)
             setattr(self, name + '_server', server)
             server.start()
             self.servers.append(server)
+
+    def set_arm(self, arm, positions):
+        self.joints.update(zip(['%s_%s_joint' % (arm, j) for j in ('lift', 'boom', 'forearm')],
+                               positions))
+        names = sorted(self.joints)
+        self._joints_pub.publish(JointState(name=names, position=[self.joints[n] for n in names]))
 
     def note(self, text):
         self._goal_pub.publish(String(data=text))
@@ -116,7 +136,47 @@ class MockServers(object):
                 self.move_robot_server.set_preempted(MoveRobotResult(succeed=-3), 'preempted, axes halted')
                 return
             done.wait(0.01)
+        self.set_arm('left' if goal.arm else 'right', goal.target_joint.positions)
         self.move_robot_server.set_succeeded(MoveRobotResult(succeed=1))
+
+    def start_per_arm_moves(self):
+        self.moving = {}                  # arm -> goal handle
+        self.moves_lock = threading.Lock()
+        self.move_server = actionlib.ActionServer('move_robot', MoveRobotAction, self.arm_goal,
+                                                  self.arm_cancel, auto_start=False)
+        self.move_server.start()
+
+    def arm_goal(self, handle):
+        goal = handle.get_goal()
+        arm = 'left' if goal.arm else 'right'
+        with self.moves_lock:
+            if arm in self.moving:
+                handle.set_rejected(MoveRobotResult(succeed=-6), 'the %s arm is moving' % arm)
+                return
+            self.moving[arm] = handle
+            both = len(self.moving) == 2
+        handle.set_accepted()
+        self.note('move_robot %s' % arm)
+        if both:
+            self.note('move_robot overlap')
+        timer = threading.Timer(self.move_duration, self.arm_done, (arm, handle, goal))
+        timer.daemon = True
+        timer.start()
+
+    def arm_done(self, arm, handle, goal):
+        with self.moves_lock:
+            if self.moving.get(arm) is not handle:
+                return                    # cancelled
+            del self.moving[arm]
+        self.set_arm(arm, goal.target_joint.positions)
+        handle.set_succeeded(MoveRobotResult(succeed=1))
+
+    def arm_cancel(self, handle):
+        with self.moves_lock:
+            for arm, h in list(self.moving.items()):
+                if h.get_goal_id().id == handle.get_goal_id().id:
+                    del self.moving[arm]
+                    handle.set_canceled(MoveRobotResult(succeed=-5), 'preempted, axes halted')
 
     def end_effector(self, goal):
         self.note('end_effector %d' % goal.command)

@@ -9,6 +9,8 @@ Params:
       check that every axis halts and the mission pauses, then resume it
   ~expect_error (str, ''): a text the mission's last error must contain (DO_ERROR cases)
   ~timeout (float, ROS-time seconds, 600)
+  ~expect_overlaps (bool, false): the task planner ran schedule pipelined and overlapped at
+      least one step (its summary's `overlaps`)
 """
 import json
 import threading
@@ -84,6 +86,9 @@ class MissionTest(unittest.TestCase):
         self.assertTrue(w.wait(lambda: w.summary is not None, timeout), 'no mission summary')
         s = w.summary
         self.assertEqual(s['outcome'], rospy.get_param('~expect_outcome', 'succeeded'), s)
+        if rospy.get_param('~expect_overlaps', False):
+            overlapped = [k for k, v in s.get('overlaps', {}).items() if v.get('overlapped')]
+            self.assertTrue(overlapped, 'no step overlapped: %s' % s.get('overlaps'))
         expect_error = rospy.get_param('~expect_error', '')
         if expect_error:
             self.assertIn(expect_error, s['last_error'])

@@ -1,0 +1,317 @@
+"""The pipelined schedule (`schedule: pipelined`): one target with the two arms overlapping.
+
+Same states and labels as the paper's Figure 14 (executive.py), reordered so the arms work at
+the same time wherever the geometry allows; SMACH Concurrence containers hold the overlaps, so
+the introspection graph shows them. Before every overlap a CHECK_* state asks the collision
+check of motion_pkg's kinematics (mission.overlap_clear: the arms' forearm+tool segments kept
+robot.yaml's `arm_clearance` + `overlap_margin` apart over both whole paths, whatever their
+timing); when it does not clear, that step runs in the paper's order.
+
+PICK_TARGET (StateMachine)
+  [DO_KINEMATICS_CUT]                      with `check_cut_before_suction`, as in the paper flow
+  RIGHT_ARM: DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_MOVE_ENDEFFECTOR (suction on)
+             -> CHOOSE_PULL -> DO_KINEMATICS_PULL      the pull is solved, not yet made
+  LEFT_ARM:  DO_KINEMATICS_AHEAD (cutting hand, at the fruit as the pull will leave it)
+             -> CHECK_APPROACH -> APPROACH (Concurrence)
+                                    DRAW_OUT: DO_MOVE_ROBOT_PULL -> DO_TOMATO_SCAN_HELD
+                                    DO_MOVE_ROBOT (left arm to the fruit)
+                                 | no pull: DO_MOVE_ROBOT
+                                 | not clear: DRAW_OUT -> DO_KINEMATICS -> DO_MOVE_ROBOT (paper)
+             -> DO_VISUALSERVOING -> DO_MOVE_ENDEFFECTOR (cut)
+  PLACE:     CHECK_PLACE -> PLACE_AND_RETURN (Concurrence)
+                              DO_MOVE_ROBOT (left arm home)
+                              TO_BOX: DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
+                                      -> [NEXT_AHEAD: the right arm goes for the next target
+                                         of this point while the left arm is still returning]
+                       | not clear: DO_MOVE_ROBOT -> DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR
+  RECOVER_*: as in the paper flow
+
+Arm moves take turns through the mission's MoveGate: motion_pkg's move_robot runs one goal at
+a time, so unless `concurrent_arm_moves` says the motion server runs one per arm, two arm moves
+of an overlap run one after the other and only the rest of the overlap (kinematics, the look
+at the held fruit, the suction valve) runs beside a move.
+"""
+import rospy
+
+from harvest_msgs.msg import (KinematicsAction, MoveRobotAction, TomatoScanAction,
+                              VisualServoAction, EndEffectorGoal)
+from control_pkg.smach_compat import smach
+from control_pkg import executive_goals as goals
+from control_pkg import mission as mission_lib
+from control_pkg.executive import _Graph, _Callbacks, _ARM_OUTCOMES, ARM_LEFT, ARM_RIGHT
+from control_pkg.executive_states import ChoosePull, Decide, MoveGate
+
+add = smach.StateMachine.add
+
+
+def _both_outcome(outcomes):
+    """A Concurrence of two branches: succeeded when both did; else aborted when one aborted
+    (the other one then ends preempted: `_any_aborted`), else preempted."""
+    values = list(outcomes.values())
+    for bad in ('aborted', 'preempted'):
+        if bad in values:
+            return bad
+    return 'succeeded'
+
+
+def _any_aborted(outcomes):
+    """child_termination_cb: an aborted branch ends the overlap (DO_ERROR halts the axes)."""
+    return 'aborted' in outcomes.values()
+
+
+def _overlap(children, gate, first, input_keys=(), output_keys=()):
+    """A Concurrence of `children` ((label, state) pairs); when the arms' moves take turns
+    (`gate`), the one of arm `first` goes first (its branch starts with it)."""
+    cc = smach.Concurrence(outcomes=['succeeded', 'aborted', 'preempted'],
+                           default_outcome='aborted', input_keys=list(input_keys),
+                           output_keys=list(output_keys), outcome_cb=_both_outcome,
+                           child_termination_cb=_any_aborted)
+    cc.register_start_cb(lambda ud, states: gate.first(first))
+    cc.register_termination_cb(lambda ud, states, outcome: gate.first(None))
+    with cc:
+        for label, state in children:
+            smach.Concurrence.add(label, state)
+    return cc
+
+
+class PipelinedGraph(_Graph):
+    """PICK_TARGET of the pipelined schedule; everything else is the paper's graph."""
+    pick_keys = ('target', 'targets')
+
+    def __init__(self, context):
+        _Graph.__init__(self, context, _PipelinedCallbacks(context))
+        if context.gate is None:
+            context.gate = MoveGate(per_arm=self.cfg.get('concurrent_arm_moves', False))
+        self.gate = context.gate
+
+    # --- the right arm: suction, the pull solved ------------------------------------------------
+    def right_arm(self):
+        cb, cfg = self.cb, self.cfg
+        sm = smach.StateMachine(outcomes=list(_ARM_OUTCOMES), input_keys=['target'],
+                                output_keys=['target', 'pull', 'pull_goal'])
+        sm.userdata.joint_goal = []
+        sm.userdata.pull = (0.0, 0.0, 0.0)
+        sm.userdata.pull_goal = []
+        with sm:
+            self.add_reach('', cb.suction_goal, cb.kinematics_result, ARM_RIGHT,
+                           then='DO_MOVE_ENDEFFECTOR', unreachable='unreachable')
+            add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_ON),
+                transitions={'aborted': 'lost',
+                             'succeeded': 'CHOOSE_PULL' if self.pulls else 'succeeded'})
+            if self.pulls:
+                add('CHOOSE_PULL', ChoosePull(
+                    self.context, self.pulls, float(cfg.get('pull_clearance', 0.0)),
+                    float(cfg['peduncle_gap']), float(cfg.get('cut_clearance', 0.01)),
+                    clear_key='pull_goal'),
+                    transitions={'pull': 'DO_KINEMATICS_PULL', 'none': 'succeeded'})
+                # a pull the arm cannot make is not an error: the fruit is cut where it hangs
+                add('DO_KINEMATICS_PULL', self.action(
+                    'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=cb.pull_goal,
+                    input_keys=['target', 'pull'], output_keys=['pull_goal'],
+                    result_cb=cb.pull_solution, outcomes=['unreachable']),
+                    transitions={'unreachable': 'succeeded'})
+        return sm
+
+    # --- the left arm: approach while the fruit is drawn out, servo, cut --------------------------
+    def left_arm(self):
+        cb = self.cb
+        keys = ['target', 'pull', 'pull_goal']
+        sm = smach.StateMachine(outcomes=list(_ARM_OUTCOMES), input_keys=keys,
+                                output_keys=['target'])
+        sm.userdata.joint_goal = []
+        with sm:
+            add('DO_KINEMATICS_AHEAD', self.action(
+                'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=cb.cutting_goal_ahead,
+                input_keys=keys, output_keys=['joint_goal'], result_cb=cb.ahead_result,
+                outcomes=['unreachable', 'after_pull']),
+                transitions={'succeeded': 'CHECK_APPROACH', 'unreachable': 'unreachable',
+                             'after_pull': 'DRAW_OUT'})
+            add('CHECK_APPROACH', Decide(cb.approach_step, ['overlap', 'sequential', 'alone'],
+                                         input_keys=['joint_goal', 'pull_goal']),
+                transitions={'overlap': 'APPROACH', 'sequential': 'DRAW_OUT',
+                             'alone': 'DO_MOVE_ROBOT'})
+            # taking turns, the pull goes first: the look at the held fruit then runs beside
+            # the left arm's move
+            add('APPROACH', _overlap(
+                [('DRAW_OUT', self.draw_out()), ('DO_MOVE_ROBOT', self.left_move())],
+                self.gate, 'right', input_keys=keys + ['joint_goal'], output_keys=['target']),
+                transitions={'succeeded': 'DO_VISUALSERVOING'})
+            # not clear: the paper's order, the cutting hand solved again beside the pulled fruit
+            add('DRAW_OUT', self.draw_out(), transitions={'succeeded': 'DO_KINEMATICS'})
+            self.add_reach('', cb.cutting_goal, cb.kinematics_result, ARM_LEFT,
+                           then='DO_VISUALSERVOING', unreachable='unreachable')
+            self.add_cut()
+        return sm
+
+    def left_move(self):
+        return self.action('DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_LEFT,
+                           goal_cb=self.cb.move_goal(ARM_LEFT), input_keys=['joint_goal'],
+                           result_cb=self.cb.move_result)
+
+    def draw_out(self):
+        """DO_MOVE_ROBOT_PULL [-> DO_TOMATO_SCAN_HELD]: the solved pull, then the look at it."""
+        cb = self.cb
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
+                                input_keys=['target', 'pull', 'pull_goal'], output_keys=['target'])
+        with sm:
+            add('DO_MOVE_ROBOT_PULL', self.action(
+                'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_RIGHT,
+                goal_cb=cb.move_goal(ARM_RIGHT, 'pull_goal'),
+                input_keys=['target', 'pull', 'pull_goal'], output_keys=['target'],
+                result_cb=cb.pull_move_result),
+                transitions={'succeeded': 'DO_TOMATO_SCAN_HELD' if self.relocate else 'succeeded'})
+            if self.relocate:
+                # a failed look is not a fault: the left arm works with the first estimate
+                add('DO_TOMATO_SCAN_HELD', self.action(
+                    'DO_TOMATO_SCAN', 'tomato_scan', TomatoScanAction, goal_cb=cb.held_scan_goal,
+                    input_keys=['target'], output_keys=['target'], result_cb=cb.held_scan_result),
+                    transitions={'aborted': 'succeeded'})
+        return sm
+
+    # --- place: to the box while the left arm returns, then on to the next target ----------------
+    def place(self):
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
+                                input_keys=['targets'])
+        with sm:
+            add('CHECK_PLACE', Decide(self.cb.place_step, ['overlap', 'sequential']),
+                transitions={'overlap': 'PLACE_AND_RETURN', 'sequential': 'DO_MOVE_ROBOT'})
+            # taking turns, the box goes first: the suction valve then closes beside the left
+            # arm's return
+            add('PLACE_AND_RETURN', _overlap(
+                [('DO_MOVE_ROBOT', self.move_fixed('DO_MOVE_ROBOT', ARM_LEFT,
+                                                   self.cfg['home']['left'])),
+                 ('TO_BOX', self.to_box())], self.gate, 'right', input_keys=['targets']),
+                transitions={'succeeded': 'succeeded'})
+            # not clear: the paper's order
+            add('DO_MOVE_ROBOT', self.move_fixed('DO_MOVE_ROBOT', ARM_LEFT, self.cfg['home']['left']),
+                transitions={'succeeded': 'DO_MOVE_ROBOT_BOX'})
+            add('DO_MOVE_ROBOT_BOX', self.move_fixed('DO_MOVE_ROBOT', ARM_RIGHT,
+                                                     self.cfg['collection_box_right']),
+                transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
+            add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF))
+        return sm
+
+    def to_box(self):
+        """DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR off [-> the next target's suction pose]."""
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
+                                input_keys=['targets'])
+        ahead = not self.check_cut     # check_cut: the suction arm waits for the cut check
+        with sm:
+            add('DO_MOVE_ROBOT_BOX', self.move_fixed('DO_MOVE_ROBOT', ARM_RIGHT,
+                                                     self.cfg['collection_box_right']),
+                transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
+            add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF),
+                transitions={'succeeded': 'NEXT_AHEAD' if ahead else 'succeeded'})
+            if ahead:
+                add('NEXT_AHEAD', self.next_ahead(), transitions={'succeeded': 'succeeded'})
+        return sm
+
+    def next_ahead(self):
+        """HAS_NEXT -> DO_KINEMATICS -> CHECK_NEXT -> DO_MOVE_ROBOT: the right arm to the
+        suction pose of the next target of this point. Best effort: no next target, none
+        reachable or not clear of the returning left arm, and the next PICK_TARGET does it."""
+        cb = self.cb
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
+                                input_keys=['targets'])
+        sm.userdata.joint_goal = []
+        with sm:
+            add('HAS_NEXT', Decide(cb.has_next, ['next', 'none'], input_keys=['targets']),
+                transitions={'next': 'DO_KINEMATICS', 'none': 'succeeded'})
+            add('DO_KINEMATICS', self.action(
+                'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=cb.next_suction_goal,
+                input_keys=['targets'], output_keys=['joint_goal'], result_cb=cb.next_solution,
+                outcomes=['unreachable']),
+                transitions={'succeeded': 'CHECK_NEXT', 'unreachable': 'succeeded',
+                             'aborted': 'succeeded'})
+            add('CHECK_NEXT', Decide(cb.next_step, ['overlap', 'sequential'],
+                                     input_keys=['joint_goal']),
+                transitions={'overlap': 'DO_MOVE_ROBOT', 'sequential': 'succeeded'})
+            add('DO_MOVE_ROBOT', self.action(
+                'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_RIGHT,
+                goal_cb=cb.move_goal(ARM_RIGHT), input_keys=['joint_goal'],
+                result_cb=cb.move_result))
+        return sm
+
+    def add_cut(self):
+        """DO_VISUALSERVOING -> DO_MOVE_ENDEFFECTOR (cut), as in the paper flow."""
+        cb = self.cb
+        add('DO_VISUALSERVOING', self.action(
+            'DO_VISUALSERVOING', 'visual_servo', VisualServoAction, arm=ARM_LEFT,
+            goal_cb=cb.servo_goal, input_keys=['target'], result_cb=cb.servo_result),
+            transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR', 'aborted': 'lost'})
+        add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SHEAR_CUT))
+
+
+class _PipelinedCallbacks(_Callbacks):
+    """The pipelined schedule's goals and decisions: userdata and the arms' joint states in,
+    executive_goals' and mission's pure functions out."""
+
+    def __init__(self, context):
+        _Callbacks.__init__(self, context)
+        cfg = context.config
+        self.home_left = tuple(float(v) for v in cfg['home']['left'])
+        self.box_right = tuple(float(v) for v in cfg['collection_box_right'])
+        self.margin = float(cfg.get('overlap_margin', 0.0))
+
+    # --- goals and results ---------------------------------------------------------------------
+    def pull_solution(self, ud, status, result):
+        joints, reason = goals.kinematics_solution(result)
+        if reason is not None:
+            rospy.logwarn('executive: cannot draw the fruit out (%s); cutting it in place', reason)
+            ud.pull_goal = []
+            return 'unreachable'
+        if joints is not None:
+            ud.pull_goal = joints
+        return None
+
+    def cutting_goal_ahead(self, ud, goal):
+        return goals.cutting_kinematics_goal(goals.target_after_pull(ud.target, ud.pull, ud.pull_goal),
+                                             self.peduncle_gap, self.approach)
+
+    def ahead_result(self, ud, status, result):
+        """Unreachable beside a fruit still to be drawn out: solve again after the pull (the
+        paper's order); with no pull to come it is final."""
+        joints, reason = goals.kinematics_solution(result)
+        if reason is not None and ud.pull_goal:
+            rospy.loginfo('executive: cutting hand not solved ahead of the pull (%s); solving it '
+                          'after the pull', reason)
+            return 'after_pull'
+        return self.kinematics_result(ud, status, result)
+
+    def has_next(self, ud):
+        return 'next' if ud.targets else 'none'
+
+    def next_suction_goal(self, ud, goal):
+        return goals.suction_kinematics_goal(ud.targets[0])
+
+    def next_solution(self, ud, status, result):
+        joints, reason = goals.kinematics_solution(result)
+        if reason is not None or joints is None:
+            return 'unreachable'      # the next PICK_TARGET records it
+        ud.joint_goal = joints
+        return None
+
+    # --- the guards of the overlaps ------------------------------------------------------------
+    def approach_step(self, ud):
+        if not ud.pull_goal:
+            return 'alone'
+        return self._step('APPROACH', {'left': ud.joint_goal, 'right': ud.pull_goal})
+
+    def place_step(self, ud):
+        return self._step('PLACE', {'left': self.home_left, 'right': self.box_right})
+
+    def next_step(self, ud):
+        return self._step('NEXT_AHEAD', {'left': self.home_left, 'right': ud.joint_goal})
+
+    def _step(self, step, goals_by_arm):
+        c = self.context
+        starts = {'left': c.arm_joints('left'), 'right': c.arm_joints('right')}
+        verdict = mission_lib.schedule_step(c.geometry, starts, goals_by_arm, self.margin,
+                                            waist=c.waist())
+        c.recorder.note_step(step, verdict.clear)
+        if verdict.clear:
+            rospy.loginfo('executive: %s overlapped (arms at least %.3f m apart)', step,
+                          verdict.distance)
+            return 'overlap'
+        rospy.loginfo('executive: %s in the paper order: %s', step, verdict.why)
+        return 'sequential'

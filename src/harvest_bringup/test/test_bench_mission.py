@@ -1,0 +1,67 @@
+"""tools/bench_mission.py --compare: the figures it prints from the runs of both schedules."""
+
+import importlib.util
+import io
+import os
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+BENCH = os.path.join(HERE, '..', '..', '..', 'tools', 'bench_mission.py')
+
+
+@pytest.fixture(scope='module')
+def bench():
+    spec = importlib.util.spec_from_file_location('bench_mission', BENCH)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def run(cycles, box, broken=(), moves=(), ends=None):
+    records = [{'outcome': 'picked', 'cycle_time': c, 'states': ['DO_MOVE_ROBOT'],
+                'durations': [c / 2.0], 'end': (ends or [10.0 * (i + 1) for i in range(len(cycles))])[i]}
+               for i, c in enumerate(cycles)]
+    records.append({'outcome': 'unreachable', 'cycle_time': 99.0, 'states': [], 'durations': []})
+    states = dict((k, 3) for k in box)                  # COLLECTED
+    states.update((k, 5) for k in broken)               # DAMAGED
+    states['green'] = 0
+    return {'records': records, 'fruit_states': states, 'moves': list(moves)}
+
+
+def test_compare_gives_each_schedules_mean_and_their_ratio(bench):
+    runs = {('a', 'paper'): [run([10.0, 20.0], ['f1', 'f2'])],
+            ('a', 'pipelined'): [run([6.0, 9.0], ['f1', 'f2'])],
+            ('b', 'paper'): [run([12.0], ['g1'])],
+            ('b', 'pipelined'): [run([6.0], ['g2'], broken=['g1'])]}
+    got = bench.compare(runs)
+    (a, a_means, a_ratio, a_same, a_broken), (b, _, b_ratio, b_same, b_broken) = got['rows']
+    assert (a, a_means, a_ratio, a_same, a_broken) == (
+        'a', {'paper': 15.0, 'pipelined': 7.5}, 0.5, True, [])
+    assert (b, b_ratio, b_same, b_broken) == ('b', 0.5, False, ['g1'])
+    assert got['overall'] == {'paper': 14.0, 'pipelined': 7.0}       # per fruit, not per run
+    assert got['ratio'] == 0.5
+
+
+def test_a_schedule_that_picked_nothing_has_no_ratio(bench):
+    got = bench.compare({('a', 'paper'): [run([10.0], ['f1'])], ('a', 'pipelined'): [run([], [])]})
+    assert got['rows'][0][2] is None and got['ratio'] is None
+    out = io.StringIO()
+    bench.print_comparison({('a', 'paper'): [run([10.0], ['f1'])]}, out)
+    assert 'ratio pipelined/paper n/a' in out.getvalue()
+
+
+def test_the_motion_bound_is_the_busier_arms_minimal_move_time(bench):
+    limits = {'waist': (1.0, 1e9)}
+    for arm in ('left', 'right'):
+        for j in ('lift', 'boom', 'forearm'):
+            limits['%s_%s' % (arm, j)] = (1.0, 1e9)         # ~instant acceleration: time = distance
+    home = {'left': [0.0, 0.0, 0.0], 'right': [0.0, 0.0, 0.0]}
+    moves = [{'t': 1.0, 'arm': 'right', 'positions': [0.0, 2.0, 0.0], 'waist': None},
+             {'t': 2.0, 'arm': 'left', 'positions': [0.0, 1.0, 0.5], 'waist': None},
+             {'t': 3.0, 'arm': 'right', 'positions': [0.0, 1.0, 0.0], 'waist': None},
+             {'t': 12.0, 'arm': 'left', 'positions': [], 'waist': 0.5},   # the waist: both arms
+             {'t': 13.0, 'arm': 'left', 'positions': [0.0, 1.0, 0.0], 'waist': None}]
+    bounds = bench.motion_bound(run([8.0, 5.0], ['f1', 'f2'], moves=moves, ends=[9.0, 14.0]),
+                                limits, home)
+    assert bounds == [pytest.approx(3.0), pytest.approx(1.0)]
