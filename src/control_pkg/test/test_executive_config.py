@@ -39,6 +39,7 @@ def test_overrides_merge_one_level_deep():
     ({'right_pulls': [[-0.08, 0.0]]}, 'right_pulls'),
     ({'cut_clearance': -0.01}, 'cut_clearance'),
     ({'relocate_tolerance': math.inf}, 'relocate_tolerance'),
+    ({'relocate_radius_tolerance': 1.5}, 'relocate_radius_tolerance'),
     ({'schedule': 'fast'}, 'schedule'),
     ({'overlap_margin': -0.01}, 'overlap_margin'),
 ])

@@ -94,3 +94,15 @@ def test_held_fruit_relocated_only_to_a_near_fruit_not_smaller():
     assert goals.relocate(held, None, 0.03).why == 'no-result'
     assert goals.relocate(tomato(5, (math.nan, 0, 1), 0.03), [near_bigger], 0.03).why == \
         'no-estimate'
+
+
+def test_held_fruit_relocated_to_one_a_little_smaller_within_the_radius_tolerance():
+    """low_light f01_0: seen again 17 mm from the first estimate with radius 28.9 mm against
+    31.2 mm; kept on the first estimate, the shear closed 15 mm beside the peduncle."""
+    held = tomato(5, (0.42, 0.1, 1.0), 0.0312)
+    seen = tomato(9, (0.437, 0.1, 1.0), 0.0289)
+    assert goals.relocate(held, [seen], 0.03).why == 'smaller'
+    moved = goals.relocate(held, [seen], 0.03, radius_tolerance=0.1)
+    assert moved.why == 'moved' and moved.target.radius == pytest.approx(0.0289)
+    much_smaller = tomato(8, (0.437, 0.1, 1.0), 0.024)
+    assert goals.relocate(held, [much_smaller], 0.03, radius_tolerance=0.1).why == 'smaller'

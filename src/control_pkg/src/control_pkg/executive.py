@@ -25,7 +25,7 @@ ROOT (StateMachine)
         and a fruit it cannot reach is skipped before the suction arm moves)
         PLACE:     DO_MOVE_ROBOT (left arm home) -> DO_MOVE_ROBOT_BOX (right arm to the box)
                    -> DO_MOVE_ENDEFFECTOR (suction off)
-        RECOVER:   DO_MOVE_ENDEFFECTOR (suction off) -> DO_MOVE_ROBOT (left arm home)
+        RECOVER:   DO_MOVE_ENDEFFECTOR (suction off) -> DO_MOVE_ROBOT (left arm home, waist 0)
       DO_ERROR                           halt every axis, record the reason; mission aborted
     ESTOP_MONITOR                        ends when an emergency stop is requested
   DO_STOP                                emergency stop: axes halted, mission paused until resume
@@ -206,7 +206,7 @@ class _Graph(object):
                 # both arms solved before suction: a fruit the cutting hand cannot reach where it
                 # hangs is skipped before the suction arm touches it (`check_cut_before_suction`)
                 add('DO_KINEMATICS_CUT', self.action(
-                    'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=self.cb.cutting_goal,
+                    'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=self.cb.cut_check_goal,
                     input_keys=['target'], result_cb=self.cb.cut_check_result,
                     outcomes=['unreachable']),
                     transitions={'succeeded': 'RIGHT_ARM', 'unreachable': 'unreachable'})
@@ -291,8 +291,10 @@ class _Graph(object):
             smach.StateMachine.add('DO_MOVE_ENDEFFECTOR',
                                    self.end_effector(EndEffectorGoal.SUCTION_OFF),
                                    transitions={'succeeded': 'DO_MOVE_ROBOT'})
+            # the left arm home, and the waist back to 0 if the suction move turned it (the
+            # next scan sees the row as the plan expects)
             smach.StateMachine.add('DO_MOVE_ROBOT', self.move_fixed(
-                'DO_MOVE_ROBOT', ARM_LEFT, self.cfg['home']['left']))
+                'DO_MOVE_ROBOT', ARM_LEFT, list(self.cfg['home']['left']) + [0.0]))
         return sm
 
 
@@ -308,6 +310,7 @@ class _Callbacks(object):
         self.peduncle_gap = float(cfg['peduncle_gap'])
         self.approach = float(cfg['left_approach_standoff'])
         self.relocate_tolerance = float(cfg.get('relocate_tolerance', 0.0))
+        self.relocate_radius_tolerance = float(cfg.get('relocate_radius_tolerance', 0.0))
         self.components = list(cfg.get('self_test_components', []))
 
     # --- DO_START, DO_MOVEBASE, SCAN -------------------------------------------------------------
@@ -353,7 +356,10 @@ class _Callbacks(object):
 
     # --- arms ----------------------------------------------------------------------------------
     def suction_goal(self, ud, goal):
-        return goals.suction_kinematics_goal(ud.target)
+        return goals.suction_kinematics_goal(ud.target, self.peduncle_gap)
+
+    def cut_check_goal(self, ud, goal):
+        return goals.cut_check_kinematics_goal(ud.target, self.peduncle_gap, self.approach)
 
     def cutting_goal(self, ud, goal):
         return goals.cutting_kinematics_goal(ud.target, self.peduncle_gap, self.approach)
@@ -431,7 +437,8 @@ class _Callbacks(object):
     def held_scan_result(self, ud, status, result):
         t = ud.target
         tomatoes = result.tomatoes.tomatoes if result is not None and result.success else None
-        found = goals.relocate(t, tomatoes, self.relocate_tolerance)
+        found = goals.relocate(t, tomatoes, self.relocate_tolerance,
+                               self.relocate_radius_tolerance)
         if found.why == 'not-found':
             rospy.loginfo('executive: held fruit not found again within %.0f mm; keeping its '
                           'first estimate', self.relocate_tolerance * 1e3)

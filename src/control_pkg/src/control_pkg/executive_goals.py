@@ -195,10 +195,11 @@ class Relocation(object):
         self.radius = radius
 
 
-def relocate(target, tomatoes, tolerance):
+def relocate(target, tomatoes, tolerance, radius_tolerance=0.0):
     """The held fruit among the tomatoes of a scan: the nearest one within `tolerance` of where
     it is expected replaces the first estimate unless it is smaller (occlusion only shrinks a
-    fitted circle, so the first view then saw more of it)."""
+    fitted circle, so the first view then saw more of it) by more than `radius_tolerance` of
+    the first radius (stereo radii of one fruit differ by that much from view to view)."""
     if tomatoes is None:
         return Relocation('no-result')
     frame = target.pick_point.header.frame_id
@@ -215,7 +216,7 @@ def relocate(target, tomatoes, tolerance):
             best, best_d = cand, d
     if best is None:
         return Relocation('not-found')
-    if best.radius < target.radius:
+    if best.radius < (1.0 - radius_tolerance) * target.radius:
         return Relocation('smaller', distance=best_d, radius=best.radius)
     moved = copy.deepcopy(target)
     moved.pick_point = best.pick_point

@@ -94,6 +94,9 @@ def merged_config(overrides, defaults=None):
     tol = cfg['relocate_tolerance']
     if not isinstance(tol, (int, float)) or not math.isfinite(float(tol)) or float(tol) < 0.0:
         raise ValueError('relocate_tolerance must be a finite number >= 0 (m), got %r' % (tol,))
+    rtol = cfg.get('relocate_radius_tolerance', 0.0)
+    if not isinstance(rtol, (int, float)) or not 0.0 <= float(rtol) < 1.0:
+        raise ValueError('relocate_radius_tolerance must be a number in [0, 1), got %r' % (rtol,))
     return cfg
 
 
