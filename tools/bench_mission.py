@@ -130,12 +130,12 @@ def motion_bound(run, limits, home):
 
 
 def robot_limits():
-    """{axis: (speed, acceleration)} from visualization_pkg's robot.yaml, the arms' home joints
+    """{axis: (speed, acceleration)} from harvest_description's robot.yaml, the arms' home joints
     from control_pkg's executive.yaml."""
     import rospkg
     import yaml
     pack = rospkg.RosPack()
-    with open(os.path.join(pack.get_path('visualization_pkg'), 'config', 'robot.yaml')) as f:
+    with open(os.path.join(pack.get_path('harvest_description'), 'config', 'robot.yaml')) as f:
         motion = yaml.safe_load(f)['motion']
     limits = {}
     for arm in ('left', 'right'):

@@ -16,7 +16,7 @@ kinematics = pytest.importorskip('motion_pkg.kinematics')
 @pytest.fixture(scope='module')
 def geometry():
     import rospkg
-    path = os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+    path = os.path.join(rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml')
     return kinematics.RobotGeometry.from_yaml(path)
 
 

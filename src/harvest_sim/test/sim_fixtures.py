@@ -11,7 +11,7 @@ if os.path.join(HERE, '..', 'src') not in sys.path:
 from harvest_sim import scenario as scn  # noqa: E402
 from motion_pkg.kinematics import RobotGeometry  # noqa: E402  (the sourced workspace's)
 
-ROBOT_YAML = os.path.join(SRC, 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(SRC, 'harvest_description', 'config', 'robot.yaml')
 SCENARIOS = os.path.normpath(os.path.join(HERE, '..', 'scenarios'))
 GEOM = RobotGeometry.from_yaml(ROBOT_YAML)
 

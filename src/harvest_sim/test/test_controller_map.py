@@ -16,7 +16,7 @@ from harvest_sim import controller_map as cm  # noqa: E402
 
 DOC = os.path.join(HERE, '..', 'docs', 'register_map.md')
 MAP_YAML = os.path.join(HERE, '..', '..', 'motion_pkg', 'config', 'register_map.yaml')
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 
 
 def doc_tables():

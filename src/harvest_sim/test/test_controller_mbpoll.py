@@ -18,7 +18,7 @@ from harvest_sim import controller_map as cm  # noqa: E402
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config  # noqa: E402
 from harvest_sim.controller_server import ControllerServer  # noqa: E402
 
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 MBPOLL = shutil.which('mbpoll')
 pytestmark = pytest.mark.skipif(MBPOLL is None, reason='mbpoll not installed (apt: mbpoll)')
 

@@ -13,7 +13,7 @@ sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from harvest_sim import controller_map as cm  # noqa: E402
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config  # noqa: E402
 
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 with open(ROBOT_YAML) as _f:
     ROBOT = yaml.safe_load(_f)
 

@@ -19,7 +19,7 @@ from harvest_sim.controller_model import ControllerModel, axes_from_robot_config
 from harvest_sim.controller_server import (BindError, ControllerServer,  # noqa: E402
                                            apply_faults, parse_fault_spec)
 
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 
 
 class FakeClock(object):

@@ -24,7 +24,7 @@ from motion_pkg.modbus_map import RegisterMap
 from test_sim_world import F0, arm, make_world, suction_at
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 REGISTER_MAP = os.path.join(HERE, '..', '..', 'motion_pkg', 'config', 'register_map.yaml')
 
 

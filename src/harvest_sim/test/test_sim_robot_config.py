@@ -11,10 +11,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from harvest_sim.controller_model import axes_from_robot_config  # noqa: E402
-from visualization_pkg.robot_config import RobotConfigError  # noqa: E402
+from harvest_description.robot_config import RobotConfigError  # noqa: E402
 from harvest_test_utils.config import with_value  # noqa: E402
 
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 with open(ROBOT_YAML) as _f:
     ROBOT = yaml.safe_load(_f)
 NAN = float('nan')

@@ -34,7 +34,7 @@ def main(argv=None):
     ap.add_argument('--scenario', default='three_targets')
     a = ap.parse_args(argv)
     cv2.setNumThreads(1)
-    geom = RobotGeometry.from_yaml(os.path.join(PKG, '..', 'visualization_pkg', 'config',
+    geom = RobotGeometry.from_yaml(os.path.join(PKG, '..', 'harvest_description', 'config',
                                                 'robot.yaml'))
     s = scn.load_scenario(scn.resolve_scenario(a.scenario, os.path.join(PKG, 'scenarios')))
     clean = render.Renderer(s, look=False)

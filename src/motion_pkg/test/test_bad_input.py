@@ -15,10 +15,10 @@ sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from motion_pkg import kinematics as kin  # noqa: E402
 from motion_pkg import motion_goals as mg  # noqa: E402
 from motion_pkg.modbus_map import RegisterMap  # noqa: E402
-from visualization_pkg.robot_config import RobotConfigError  # noqa: E402
+from harvest_description.robot_config import RobotConfigError  # noqa: E402
 from harvest_test_utils.config import with_value  # noqa: E402
 
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 with open(ROBOT_YAML) as _f:
     ROBOT = yaml.safe_load(_f)
 MAP = RegisterMap.from_file(os.path.join(HERE, '..', 'config', 'register_map.yaml'))

@@ -13,7 +13,7 @@ sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from motion_pkg import kinematics as kin  # noqa: E402
 
-ROBOT_YAML = os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 GEOM = kin.RobotGeometry.from_yaml(ROBOT_YAML)
 FAST = settings(max_examples=300, deadline=None)
 

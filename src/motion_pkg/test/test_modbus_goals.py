@@ -14,7 +14,7 @@ from motion_pkg import motion_goals as mg  # noqa: E402
 from motion_pkg.modbus_map import RegisterMap, split_int32  # noqa: E402
 
 MAP = RegisterMap.from_file(os.path.join(HERE, '..', 'config', 'register_map.yaml'))
-with open(os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')) as _f:
+with open(os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')) as _f:
     LIMITS = mg.limits_from_robot_config(yaml.safe_load(_f))
 NAN = float('nan')
 

@@ -12,7 +12,7 @@ sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from motion_pkg import motion_goals as mg  # noqa: E402
 
-with open(os.path.join(HERE, '..', '..', 'visualization_pkg', 'config', 'robot.yaml')) as _f:
+with open(os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')) as _f:
     LIMITS = mg.limits_from_robot_config(yaml.safe_load(_f))
 NAN = float('nan')
 

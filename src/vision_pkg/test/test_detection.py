@@ -346,7 +346,7 @@ def test_red_fruit_with_a_leaf_across_its_edge_keeps_its_own_circle():
     from harvest_sim import camera_model, render, scenario as scn
     from motion_pkg.kinematics import RobotGeometry
     src = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..')
-    geom = RobotGeometry.from_yaml(os.path.join(src, 'visualization_pkg', 'config', 'robot.yaml'))
+    geom = RobotGeometry.from_yaml(os.path.join(src, 'harvest_description', 'config', 'robot.yaml'))
     sc = scn.load_scenario(os.path.join(src, 'harvest_sim', 'scenarios', 'plant_factory_led.yaml'))
     camera = camera_model.stereo_camera()
     _, right_T = scn.stereo_eyes(geom, sc.track.picking_points[2])

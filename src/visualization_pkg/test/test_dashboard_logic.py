@@ -21,7 +21,8 @@ from visualization_pkg.dashboard import (diagnostics_tree as dt, executive_state
                                          log_buffer, manual_ops, mission_stats, node_health, smach_model,
                                          userdata)
 
-ROBOT_YAML = os.path.join(PKG, 'config', 'robot.yaml')
+DESCRIPTION = os.path.join(os.path.dirname(PKG), 'harvest_description')
+ROBOT_YAML = os.path.join(DESCRIPTION, 'config', 'robot.yaml')
 
 
 # --- SMACH model and layout ------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""robot.yaml validator (visualization_pkg.robot_config): examples and hypothesis properties.
+"""robot.yaml validator (harvest_description.robot_config): examples and hypothesis properties.
 
 Every reader of robot.yaml relies on it (motion_pkg, harvest_sim, this package), so the
 properties check that a bad value is refused naming exactly its field, in one line, and that
@@ -19,13 +19,14 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(PKG, 'src'))
 
-from visualization_pkg import robot_config as rc  # noqa: E402
+from harvest_description import robot_config as rc  # noqa: E402
 from visualization_pkg.arm_geometry import ArmGeometry  # noqa: E402
 from visualization_pkg.dashboard import manual_ops  # noqa: E402
-from visualization_pkg.urdf_generator import build_urdf  # noqa: E402
+from harvest_description.urdf_generator import build_urdf  # noqa: E402
 from harvest_test_utils.config import with_value  # noqa: E402
 
-ROBOT_YAML = os.path.join(PKG, 'config', 'robot.yaml')
+DESCRIPTION = os.path.join(os.path.dirname(PKG), 'harvest_description')
+ROBOT_YAML = os.path.join(DESCRIPTION, 'config', 'robot.yaml')
 with open(ROBOT_YAML) as _f:
     ROBOT = yaml.safe_load(_f)
 

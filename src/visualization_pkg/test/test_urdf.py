@@ -16,11 +16,12 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 PKG = os.path.dirname(HERE)
 sys.path.insert(0, os.path.join(PKG, 'src'))
 
-from visualization_pkg.urdf_generator import urdf_from_yaml  # noqa: E402
+from harvest_description.urdf_generator import urdf_from_yaml  # noqa: E402
 from motion_pkg import kinematics as kin  # noqa: E402
 
-ROBOT_YAML = os.path.join(PKG, 'config', 'robot.yaml')
-URDF = os.path.join(PKG, 'urdf', 'harvest_robot.urdf')
+DESCRIPTION = os.path.join(os.path.dirname(PKG), 'harvest_description')
+ROBOT_YAML = os.path.join(DESCRIPTION, 'config', 'robot.yaml')
+URDF = os.path.join(DESCRIPTION, 'urdf', 'harvest_robot.urdf')
 GEOM = kin.RobotGeometry.from_yaml(ROBOT_YAML)
 
 
@@ -67,7 +68,7 @@ def test_committed_urdf_is_generated_from_robot_yaml():
 
 
 def test_generate_urdf_script_check_mode():
-    script = os.path.join(PKG, 'scripts', 'generate_urdf')
+    script = os.path.join(DESCRIPTION, 'scripts', 'generate_urdf')
     assert subprocess.call([sys.executable, script, '--check']) == 0
 
 

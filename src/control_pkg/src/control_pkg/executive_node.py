@@ -13,7 +13,7 @@ Node `task_planner`
   Subscribes (schedule pipelined): joint_states (sensor_msgs/JointState: where the arms are)
   Params: ~mission_id, ~picking_points (list of indices; default all of /track/picking_points),
     ~autostart (true), ~shutdown_when_done (false), ~robot_description_yaml (pipelined: robot.yaml,
-    default visualization_pkg's), and everything of config/executive.yaml.
+    default harvest_description's), and everything of config/executive.yaml.
 """
 import math
 import os
@@ -155,7 +155,7 @@ class TaskPlanner(object):
             from motion_pkg.kinematics import RobotGeometry
             import rospkg
             path = rospy.get_param('~robot_description_yaml', '') or os.path.join(
-                rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+                rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml')
             self.context.geometry = RobotGeometry.from_yaml(path)
         except Exception as exc:  # noqa: BLE001 - without it nothing overlaps, the mission runs
             rospy.logerr('task_planner: no robot geometry for the pipelined schedule (%s): every '

@@ -60,10 +60,10 @@ def _paths():
     try:
         import rospkg
         rp = rospkg.RosPack()
-        return rp.get_path('harvest_sim'), os.path.join(rp.get_path('visualization_pkg'),
+        return rp.get_path('harvest_sim'), os.path.join(rp.get_path('harvest_description'),
                                                         'config', 'robot.yaml')
     except Exception:      # noqa: BLE001 - no ROS environment: source tree
-        return pkg, os.path.join(pkg, '..', 'visualization_pkg', 'config', 'robot.yaml')
+        return pkg, os.path.join(pkg, '..', 'harvest_description', 'config', 'robot.yaml')
 
 
 def _median_ms(fn, repeat):

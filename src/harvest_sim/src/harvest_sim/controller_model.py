@@ -14,7 +14,7 @@ import threading
 
 from harvest_sim import controller_map as cm
 from harvest_sim.controller_profile import plan_move, plan_stop
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 
 HALF_COUNT = 0.5
 
@@ -40,7 +40,7 @@ class AxisConfig(object):
 def axes_from_robot_config(robot_yaml, initial=None):
     """AxisConfig list in controller order from the parsed robot.yaml dictionary.
 
-    The dictionary is validated first (visualization_pkg.robot_config): a NaN limit or speed
+    The dictionary is validated first (harvest_description.robot_config): a NaN limit or speed
     raises RobotConfigError naming the field instead of a model that cannot move."""
     robot_config.validate(robot_yaml)
     initial = initial or {}

@@ -26,7 +26,7 @@ Parameters:
   ~host (127.0.0.1, loopback only), ~port (5020), ~unit_id (1),
   ~serial_number (1; the identity block's serial number, registers 7-8: the robot's driver
   refuses a controller whose serial number is not its ~controller_serial),
-  ~robot_config (path of robot.yaml; default visualization_pkg/config/robot.yaml),
+  ~robot_config (path of robot.yaml; default harvest_description/config/robot.yaml),
   ~initial_positions ({axis: value}, SI units), ~publish_rate (60 Hz), ~shear_hold (0.2 s),
   ~fault ("" = normal; see controller_server.FAULT_SYNTAX), applied at start-up too.
 An address that cannot be bound (or is not loopback) or a bad ~serial_number raises
@@ -52,7 +52,7 @@ from harvest_sim.srv import FaultWindow, FaultWindowResponse
 
 
 def default_robot_config():
-    return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+    return os.path.join(rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml')
 
 
 class StartupError(Exception):

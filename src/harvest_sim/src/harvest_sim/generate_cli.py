@@ -12,13 +12,13 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 
 
 def default_robot_config():
-    """robot.yaml of visualization_pkg: via rospkg, else next to this source tree."""
+    """robot.yaml of harvest_description: via rospkg, else next to this source tree."""
     try:
         import rospkg
-        return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config',
+        return os.path.join(rospkg.RosPack().get_path('harvest_description'), 'config',
                             'robot.yaml')
     except Exception:      # noqa: BLE001 - no ROS environment: use the source tree
-        return os.path.join(HERE, '..', '..', '..', 'visualization_pkg', 'config', 'robot.yaml')
+        return os.path.join(HERE, '..', '..', '..', 'harvest_description', 'config', 'robot.yaml')
 
 
 def default_scenarios_dir():
@@ -39,7 +39,7 @@ def parse_args(argv):
     p.add_argument('-o', '--output', help='output file (default: stdout)')
     p.add_argument('--out-dir', default=default_scenarios_dir(),
                    help='directory for --all-presets (default: the package scenarios/)')
-    p.add_argument('--robot-config', default=None, help='robot.yaml (default: visualization_pkg)')
+    p.add_argument('--robot-config', default=None, help='robot.yaml (default: harvest_description's)')
     return p.parse_args(argv)
 
 

@@ -21,8 +21,8 @@ Services:
                                                  of ROS time
 Parameters:
   ~scenario (required): scenario name (scenarios/NAME.yaml) or file path
-  ~robot_config: robot.yaml path (default visualization_pkg/config/robot.yaml); a bad file
-    (visualization_pkg.robot_config) ends the node at start: one fatal line, exit code 1
+  ~robot_config: robot.yaml path (default harvest_description/config/robot.yaml); a bad file
+    (harvest_description.robot_config) ends the node at start: one fatal line, exit code 1
   ~seal_tolerance (0.012 m), ~cut_tolerance (0.010 m), ~tear_distance (0.12 m),
   ~publish_rate (10 Hz, ROS time), ~motion_rate (30 Hz: most often a moving held fruit is
   republished; state changes are published at once)
@@ -47,7 +47,7 @@ from harvest_sim.srv import (GetSimSummary, GetSimSummaryResponse, SilenceCamera
                              SilenceCameraResponse)
 from harvest_sim.world import World
 from motion_pkg.kinematics import RobotGeometry
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 
 
 #: s of ROS time a stamped shear close waits for a joint state as recent as itself
@@ -55,7 +55,7 @@ CUT_WAIT = 0.5
 
 
 def default_robot_config():
-    return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+    return os.path.join(rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml')
 
 
 def load_robot_config():

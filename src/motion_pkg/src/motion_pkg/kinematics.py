@@ -1,7 +1,7 @@
 """Kinematics of the dual-arm harvesting robot (pure numpy, no rospy).
 
-The geometry comes from visualization_pkg/config/robot.yaml; the frame tree is exactly the one of
-visualization_pkg/urdf/harvest_robot.urdf (a test composes the URDF joints and compares):
+The geometry comes from harvest_description/config/robot.yaml; the frame tree is exactly the one of
+harvest_description/urdf/harvest_robot.urdf (a test composes the URDF joints and compares):
 
     map -cart_joint (prismatic, +y)-> base_link -waist_joint (revolute z)-> waist_link
     waist_link -fixed (base_xyz, base_yaw)-> <arm>_arm_base
@@ -53,7 +53,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 
 ARMS = ('left', 'right')
 TOOL_FRAME = {'left': 'left_shear_tcp', 'right': 'right_suction_tcp'}

@@ -20,7 +20,7 @@ other_target).
 
 Subscribed: joint_states (sensor_msgs/JointState; partial messages are merged).
 Params:
-  ~robot_description_yaml  robot.yaml path (default: visualization_pkg/config/robot.yaml);
+  ~robot_description_yaml  robot.yaml path (default: harvest_description/config/robot.yaml);
                            a bad file ends the node at start (one fatal line, exit code 1)
   ~base_frame              frame the IK works in: base_link (default; waist angle from
                            joint_states) or waist_link (waist angle taken as 0)
@@ -40,7 +40,7 @@ from harvest_msgs.msg import KinematicsAction, KinematicsFeedback, KinematicsRes
 from sensor_msgs.msg import JointState
 
 from motion_pkg.kinematics import HOME_JOINTS, OTHER_ARM, RobotGeometry
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 
 ACTION_NAME = 'kinematics'
 JOINT_STATES_TOPIC = 'joint_states'
@@ -50,9 +50,9 @@ ARM_JOINTS = ('lift', 'boom', 'forearm')
 
 
 def default_robot_yaml():
-    """visualization_pkg's config/robot.yaml, found with rospkg."""
+    """harvest_description's config/robot.yaml, found with rospkg."""
     import rospkg
-    return os.path.join(rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+    return os.path.join(rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml')
 
 
 def arm_joint_names(arm):

@@ -13,7 +13,7 @@ MoveRobot ``succeed`` codes (result of ``move_robot``):
 
 import math
 
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 
 SUCCESS = 1
 FAILURE = 0

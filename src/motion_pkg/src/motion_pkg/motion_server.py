@@ -34,7 +34,7 @@ from std_srvs.srv import Trigger, TriggerResponse
 from motion_pkg import motion_goals as mg
 from motion_pkg.modbus_driver import ConnectionLost, ControllerRefused, DriverError, ModbusDriver
 from motion_pkg.modbus_map import RegisterMap, parse_serial_number
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 
 POLL_RATE_TOLERANCE = 0.2          # diagnostics: poll rate within +-20 % of ~poll_rate is OK
 POLL_RATE_WINDOW = 10              # diagnostics: averaging window (updates)
@@ -72,7 +72,7 @@ class MotionServer(object):
         # a bad robot.yaml: one fatal line naming file and field, exit 1 (nothing connects)
         self.limits = mg.limits_from_robot_config(robot_config.load_or_exit(
             rospy.get_param('~robot_config', '') or
-            _package_file('visualization_pkg', 'config', 'robot.yaml'), rospy.logfatal))
+            _package_file('harvest_description', 'config', 'robot.yaml'), rospy.logfatal))
         missing = [a for a in self.regmap.axis_names if a not in self.limits]
         if missing:
             raise ValueError('axes %s of the register map are not in robot.yaml' % missing)

@@ -126,11 +126,11 @@ def render_frames(count, cache_dir, seed, log):
             stem = os.path.join(cache_dir, 'bench_%03d_%d' % (index, point))
             if not os.path.exists(stem + '.json'):
                 if geom is None:
-                    robot_yaml = os.path.join(_package_dir(), '..', 'visualization_pkg',
+                    robot_yaml = os.path.join(_package_dir(), '..', 'harvest_description',
                                               'config', 'robot.yaml')
                     try:
                         import rospkg
-                        robot_yaml = os.path.join(rospkg.RosPack().get_path('visualization_pkg'),
+                        robot_yaml = os.path.join(rospkg.RosPack().get_path('harvest_description'),
                                                   'config', 'robot.yaml')
                     except Exception:
                         pass

@@ -7,7 +7,7 @@ Subscribes (relative names; the actionlib topics are the executive's own goals a
   mission/events                            the executive's current state, as text over the robot
 Publishes: mission/markers (visualization_msgs/MarkerArray, latched; the whole set each time)
 Fruit spheres are kept in ~fixed_frame (map): the records are in base_link, which moves with the cart.
-Params: ~robot_yaml (default visualization_pkg config/robot.yaml; a bad file ends the node at
+Params: ~robot_yaml (default harvest_description's config/robot.yaml; a bad file ends the node at
   start with one fatal line naming the field, exit code 1), ~base_frame (base_link),
   ~fixed_frame (map), ~tf_timeout (s, 0.2),
   ~history (number of fruit spheres kept, 200), ~text_height (m, 0.06)
@@ -24,7 +24,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from harvest_msgs.msg import (KinematicsActionGoal, KinematicsActionResult, MissionEvent, MoveRobotActionGoal,
                               MoveRobotActionResult, PickRecord)
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 from visualization_pkg.arm_geometry import ArmGeometry
 
 OUTCOME_RGBA = {PickRecord.OUTCOME_PICKED: (0.18, 0.8, 0.25, 0.9), PickRecord.OUTCOME_UNREACHABLE: (1.0, 0.55, 0.0, 0.9),
@@ -39,7 +39,7 @@ def _colour(rgba):
 class MissionMarkers(object):
     def __init__(self):
         path = rospy.get_param('~robot_yaml', '') or os.path.join(
-            rospkg.RosPack().get_path('visualization_pkg'), 'config', 'robot.yaml')
+            rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml')
         # a bad robot.yaml: one fatal line naming file and field, exit 1
         self.arm = ArmGeometry.from_robot_yaml(robot_config.load_or_exit(path, rospy.logfatal))
         self.base_frame = rospy.get_param('~base_frame', 'base_link')

@@ -30,11 +30,11 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 
 from harvest_msgs.msg import (EndEffectorAction, EndEffectorGoal, MoveBaseAction, MoveBaseGoal, MoveRobotAction,
                               MoveRobotGoal)
-from visualization_pkg import robot_config
+from harvest_description import robot_config
 from visualization_pkg.dashboard import executive_state as es
 from visualization_pkg.dashboard import manual_ops
 from visualization_pkg.dashboard.operator_events import OperatorEventPublisher
-from visualization_pkg.dashboard.qt_common import Panel, package_path, resource_path, ros_now
+from visualization_pkg.dashboard.qt_common import Panel, resource_path, robot_yaml_path, ros_now
 
 EE_NAMES = {EndEffectorGoal.SUCTION_ON: 'suction on', EndEffectorGoal.SUCTION_OFF: 'suction off',
             EndEffectorGoal.SHEAR_CUT: 'shear cut'}
@@ -133,7 +133,7 @@ class OperationPanel(Panel):
 
     @staticmethod
     def _load_limits(path):
-        path = path or os.path.join(package_path(), 'config', 'robot.yaml')
+        path = path or robot_yaml_path()
         try:
             return manual_ops.limits_from_robot_yaml(robot_config.load(path))
         except (IOError, OSError, KeyError, TypeError, ValueError) as exc:  # RobotConfigError too

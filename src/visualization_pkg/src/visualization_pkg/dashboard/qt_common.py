@@ -168,5 +168,16 @@ def package_path():
         return os.path.abspath(os.path.join(os.path.dirname(__file__), '..', '..', '..'))
 
 
+def robot_yaml_path():
+    """harvest_description's config/robot.yaml (rospkg), else beside this source tree."""
+    try:
+        import rospkg
+        return os.path.join(rospkg.RosPack().get_path('harvest_description'), 'config',
+                            'robot.yaml')
+    except Exception:  # noqa: BLE001 - rospkg missing or ROS_PACKAGE_PATH unset: the source tree
+        return os.path.abspath(os.path.join(os.path.dirname(__file__), '..', '..', '..', '..',
+                                            'harvest_description', 'config', 'robot.yaml'))
+
+
 def resource_path(name):
     return os.path.join(package_path(), 'resource', name)
