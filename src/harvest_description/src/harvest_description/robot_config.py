@@ -214,6 +214,8 @@ class _Checker(object):
             self.vector3(head, 'xyz', 'robot.stereo_head')
             self.vector3(head, 'rpy', 'robot.stereo_head')
             self.number(head, 'baseline', 'robot.stereo_head', positive=True)
+        # optional and unused: the place pose over the box is the executive's
+        # (control_pkg executive.yaml collection_box_right); older files may still carry it
         box = self.mapping(robot, 'collection_box', p, optional=True)
         if box is not None:
             self.vector3(box, 'right_arm_joints', 'robot.collection_box', optional=True)
