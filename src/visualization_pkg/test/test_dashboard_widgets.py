@@ -220,6 +220,27 @@ class FakeEvents(object):
         self.sent.append((action, outcome, text))
 
 
+def test_shell_is_off_until_the_operator_enables_it_in_the_settings_menu(app, tmp_path):
+    from visualization_pkg.dashboard.main_window import DashboardWindow
+    from visualization_pkg.dashboard.shell_panel import ShellPanel
+    ini = str(tmp_path / 'shell.ini')
+    w = DashboardWindow(settings=QSettings(ini, QSettings.IniFormat))
+    assert w.shell is None and not w.shell_action.isChecked()
+    w.shell_action.trigger()                                  # the operator ticks it
+    assert isinstance(w.shell, ShellPanel) and w.shell in w.panels
+    assert isinstance(w.shell.parentWidget(), QtWidgets.QDockWidget)
+    w.shutdown()
+    again = DashboardWindow(settings=QSettings(ini, QSettings.IniFormat))
+    assert isinstance(again.shell, ShellPanel) and again.shell_action.isChecked()   # kept
+    again.shell_action.trigger()                              # and unticks it
+    assert again.shell is None and not any(isinstance(p, ShellPanel) for p in again.panels)
+    again.shutdown()
+    # the operator's choice wins over the launch's enable_shell default
+    third = DashboardWindow({'enable_shell': True}, QSettings(ini, QSettings.IniFormat))
+    assert third.shell is None
+    third.shutdown()
+
+
 @pytest.fixture
 def shell(app):
     from visualization_pkg.dashboard.shell_panel import ShellPanel

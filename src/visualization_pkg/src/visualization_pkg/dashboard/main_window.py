@@ -56,6 +56,19 @@ def merged_config(overrides):
     return cfg
 
 
+#: the operator's shell setting in the dashboard's QSettings (the launch's enable_shell is the
+#: default until the operator chooses)
+SHELL_SETTING = 'modules/shell'
+
+
+def shell_enabled(settings, default):
+    """The shell setting as a bool (QSettings' ini files give strings back)."""
+    value = settings.value(SHELL_SETTING, default)
+    if isinstance(value, str):
+        return value.strip().lower() in ('true', '1', 'yes')
+    return bool(value)
+
+
 class DashboardWindow(QMainWindow):
     """One window, dockable panels; start() subscribes, close() saves settings and shuts down."""
     quit_requested = Signal()
@@ -91,10 +104,8 @@ class DashboardWindow(QMainWindow):
         if cfg['embedded_rviz']:
             self._setup_rviz(cfg['rviz_config'])
         self.shell = None
-        if cfg['enable_shell']:
-            from visualization_pkg.dashboard.shell_panel import ShellPanel
-            self.shell = ShellPanel()
-            self.panels.append(self.shell)
+        if shell_enabled(self.settings, cfg['enable_shell']):
+            self._create_shell()
 
         # the emergency stop lives in a fixed toolbar: always visible, whatever the docks do
         bar = QToolBar('Emergency stop')
@@ -133,6 +144,12 @@ class DashboardWindow(QMainWindow):
         for panel in self.panels:
             view.addAction(self.docks[panel].toggleViewAction())
         view.addSeparator()
+        settings_menu = self.menuBar().addMenu('&Settings')
+        self.shell_action = QAction('Shell panel (a local terminal; never reachable from the network)', self)
+        self.shell_action.setCheckable(True)
+        self.shell_action.setChecked(self.shell is not None)
+        self.shell_action.toggled.connect(self.set_shell_enabled)
+        settings_menu.addAction(self.shell_action)
         reset = QAction('Reset layout', self)
         reset.triggered.connect(self._default_layout)
         view.addAction(reset)
@@ -146,6 +163,40 @@ class DashboardWindow(QMainWindow):
         self._timer.setInterval(250)
         self._timer.timeout.connect(self._tick)
         self.quit_requested.connect(self.close, Qt.QueuedConnection)
+
+    def _create_shell(self):
+        from visualization_pkg.dashboard.shell_panel import ShellPanel
+        self.shell = ShellPanel()
+        self.panels.append(self.shell)
+
+    def set_shell_enabled(self, enabled):
+        """The operator's setting (Settings menu, kept in the dashboard's settings): the shell
+        panel opens now and at every start, or closes (its shell ended) and stays closed."""
+        enabled = bool(enabled)
+        self.settings.setValue(SHELL_SETTING, enabled)
+        self.settings.sync()
+        if enabled and self.shell is None:
+            self._create_shell()
+            dock = QDockWidget(self.shell.title, self)
+            dock.setObjectName('dock_' + self.shell.__class__.__name__)
+            dock.setWidget(self.shell)
+            dock.setFeatures(QDockWidget.DockWidgetMovable | QDockWidget.DockWidgetFloatable |
+                             QDockWidget.DockWidgetClosable)
+            self.docks[self.shell] = dock
+            self.addDockWidget(Qt.RightDockWidgetArea, dock)
+            self.tabifyDockWidget(self.docks[self.reconfigure], dock)
+            dock.raise_()
+            if self._timer.isActive():          # the window has started: so does the shell
+                self.shell.start()
+        elif not enabled and self.shell is not None:
+            shell, self.shell = self.shell, None
+            shell.shutdown()
+            dock = self.docks.pop(shell)
+            self.removeDockWidget(dock)
+            self.panels.remove(shell)
+            dock.deleteLater()
+        if self.shell_action.isChecked() != enabled:
+            self.shell_action.setChecked(enabled)
 
     def _setup_rviz(self, config_path):
         panel, reason = rviz_panel.make_rviz(config_path, QApplication.platformName())
