@@ -175,6 +175,53 @@ def compare(runs):
     return {'rows': rows, 'overall': overall, 'ratio': ratio}
 
 
+def executive_overhead(runs):
+    """{action: [ms]}: for every goal the executive sent while none of its goals was running,
+    the wall time since the result that ended its previous state arrived (both seen on the wire
+    by run_demo's recorder): the executive's own time between two action states (result
+    callback, transition, next goal callback, sending). Goals sent beside a running one (the
+    SCAN concurrence, the pipelined overlaps) have no such gap and are left out."""
+    out = {}
+    for run in runs:
+        running, last_result = set(), None
+        for t, kind, action, gid in sorted(run.get('wire', [])):
+            if kind == 'goal':
+                if not running and last_result is not None:
+                    out.setdefault(action, []).append((t - last_result) * 1000.0)
+                running.add(gid)
+            else:
+                running.discard(gid)
+                last_result = t
+    return out
+
+
+def percentile(values, q):
+    values = sorted(values)
+    if not values:
+        return None
+    k = (len(values) - 1) * q / 100.0
+    lo = int(k)
+    hi = min(lo + 1, len(values) - 1)
+    return values[lo] + (values[hi] - values[lo]) * (k - lo)
+
+
+def print_overhead(runs, out=sys.stdout):
+    gaps = executive_overhead(runs)
+    if not gaps:
+        out.write('executive overhead: no sequential goals on the wire\n')
+        return gaps
+    out.write("executive overhead, previous state's result -> this goal [ms, wall]:\n")
+    every = []
+    for action in sorted(gaps):
+        v = gaps[action]
+        every += v
+        out.write('  %-18s n %4d  median %6.1f  p95 %6.1f\n' % (
+            action, len(v), percentile(v, 50), percentile(v, 95)))
+    out.write('  %-18s n %4d  median %6.1f  p95 %6.1f\n' % (
+        'all', len(every), percentile(every, 50), percentile(every, 95)))
+    return gaps
+
+
 def _fmt(value, spec='%.1f'):
     return 'n/a' if value is None else spec % value
 
@@ -232,6 +279,9 @@ def run_compare(scenarios, repeat, time_scale, timeout):
                       'wall %s s' % (scenario, schedule, picked, rr, dmg, cycle, wall))
                 sys.stdout.flush()
     result = print_comparison(runs)
+    for schedule in SCHEDULES:
+        sys.stdout.write('%s: ' % schedule)
+        print_overhead([r for (_, sch), rs in runs.items() if sch == schedule for r in rs])
     return 0 if result['ratio'] is not None else 1
 
 

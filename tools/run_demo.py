@@ -32,6 +32,13 @@ DEFAULT_TIMEOUT = 900.0   # wall seconds
 DEFAULT_TIME_SCALE = '20'
 
 
+#: the executive's action servers and their action types (control_pkg config/executive.yaml)
+WIRE_ACTIONS = (('self_test', 'Start'), ('move_base', 'MoveBase'), ('tomato_scan', 'TomatoScan'),
+                ('spatial_temporal', 'SpatialTemporal'), ('kinematics', 'Kinematics'),
+                ('move_robot', 'MoveRobot'), ('end_effector', 'EndEffector'),
+                ('visual_servo', 'VisualServo'))
+
+
 def ground_truth_counts(summary):
     """(ripe reachable, harvested, damaged) from harvest_sim's GetSimSummary response."""
     return (int(summary.ripe_reachable), int(summary.harvested + summary.collected),
@@ -125,6 +132,19 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
                       'positions': list(goal.target_joint.positions),
                       'waist': float(goal.waist) if getattr(goal, 'move_waist', False) else None})
 
+    wire = []
+    executive = '/task_planner'
+
+    def on_wire(kind, action):
+        """Goals the executive sends and the results it gets back, with their wall arrival time
+        here (tools/bench_mission.py: the executive's overhead between one state's result and
+        the next state's goal). Goals of other clients (the visual servo's) are left out."""
+        def cb(msg):
+            gid = msg.goal_id.id if kind == 'goal' else msg.status.goal_id.id
+            if gid.startswith(executive + '-'):
+                wire.append((time.monotonic(), kind, action, gid))
+        return cb
+
     def on_record(msg):
         names = {msg.OUTCOME_PICKED: 'picked', msg.OUTCOME_UNREACHABLE: 'unreachable',
                  msg.OUTCOME_LOST: 'lost', msg.OUTCOME_FAILED: 'failed'}
@@ -152,6 +172,13 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
         from harvest_msgs.msg import MoveRobotActionGoal
         move_sub = rospy.Subscriber('/move_robot/goal', MoveRobotActionGoal, on_move,
                                     queue_size=100)
+        import harvest_msgs.msg as hm
+        wire_subs = []
+        for action, spec in WIRE_ACTIONS:
+            for kind, suffix in (('goal', 'Goal'), ('result', 'Result')):
+                wire_subs.append(rospy.Subscriber(
+                    '/%s/%s' % (action, kind), getattr(hm, '%sAction%s' % (spec, suffix)),
+                    on_wire(kind, action), queue_size=100, tcp_nodelay=True))
         first = None              # (wall, sim) of the first tick of the simulated clock seen
         while not done.wait(0.05 if first is None else 0.5):
             if first is None and rospy.get_time() > 0.0:
@@ -165,6 +192,8 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
         sub.unregister()
         rec_sub.unregister()
         move_sub.unregister()
+        for s in wire_subs:
+            s.unregister()
         wall = end[0] - wall_start
         if first is None:
             first = end
@@ -175,6 +204,7 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
         truth = rospy.ServiceProxy('/sim/get_summary', GetSimSummary)()
         return {'summary': state['summary'], 'truth': truth, 'wall': wall, 'sim_span': sim_span,
                 'wall_span': wall_span, 'records': list(records), 'moves': list(moves),
+                'wire': list(wire),
                 'fruit_states': dict((f.id, int(f.state)) for f in fruits)}
     finally:
         stop_launch(launch)

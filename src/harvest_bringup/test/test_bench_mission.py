@@ -65,3 +65,24 @@ def test_the_motion_bound_is_the_busier_arms_minimal_move_time(bench):
     bounds = bench.motion_bound(run([8.0, 5.0], ['f1', 'f2'], moves=moves, ends=[9.0, 14.0]),
                                 limits, home)
     assert bounds == [pytest.approx(3.0), pytest.approx(1.0)]
+
+
+def test_executive_overhead_counts_only_goals_sent_while_nothing_ran(bench):
+    e = '/task_planner-'
+    wire = [(1.000, 'goal', 'kinematics', e + '1'), (1.010, 'result', 'kinematics', e + '1'),
+            (1.013, 'goal', 'move_robot', e + '2'),           # 3 ms after the result
+            (2.000, 'result', 'move_robot', e + '2'),
+            (2.002, 'goal', 'tomato_scan', e + '3'),          # 2 ms; SCAN: two goals at once
+            (2.003, 'goal', 'spatial_temporal', e + '4'),     # sent beside a running one: left out
+            (2.500, 'result', 'spatial_temporal', e + '4'),
+            (2.600, 'result', 'tomato_scan', e + '3'),
+            (2.605, 'goal', 'kinematics', e + '5')]           # 5 ms after the last result
+    gaps = bench.executive_overhead([{'wire': wire}])
+    assert sorted(gaps) == ['kinematics', 'move_robot', 'tomato_scan']
+    assert gaps['move_robot'] == [pytest.approx(3.0)]
+    assert gaps['tomato_scan'] == [pytest.approx(2.0)]
+    assert gaps['kinematics'] == [pytest.approx(5.0)]
+    out = io.StringIO()
+    bench.print_overhead([{'wire': wire}], out)
+    assert 'all' in out.getvalue() and 'median' in out.getvalue()
+    assert bench.percentile([1.0, 2.0, 3.0, 4.0], 50) == pytest.approx(2.5)
