@@ -218,7 +218,7 @@ def write_run(path, run, scenario, schedule):
     data = {'scenario': scenario, 'schedule': schedule or '', 'summary': run['summary'],
             'truth': {'ripe_reachable': ripe_reachable, 'harvested': harvested, 'damaged': damaged},
             'wall': run['wall'], 'records': run['records'], 'moves': run['moves'],
-            'fruit_states': run['fruit_states']}
+            'fruit_states': run['fruit_states'], 'wire': run.get('wire', [])}
     with open(path, 'w') as stream:
         json.dump(data, stream, indent=1)
 
