@@ -176,22 +176,18 @@ def compare(runs):
 
 
 def executive_overhead(runs):
-    """{action: [ms]}: for every goal the executive sent while none of its goals was running,
-    the wall time since the result that ended its previous state arrived (both seen on the wire
-    by run_demo's recorder): the executive's own time between two action states (result
-    callback, transition, next goal callback, sending). Goals sent beside a running one (the
-    SCAN concurrence, the pipelined overlaps) have no such gap and are left out."""
+    """{action: [ms]}: for every goal the executive sent right after one of its results (the
+    previous event on the wire, as run_demo's recorder saw it), the wall time between the two:
+    the executive's own time between two action states (result callback, transition, next goal
+    callback, sending). A goal that follows another goal (the SCAN concurrence's second one) has
+    no such gap and is left out."""
     out = {}
     for run in runs:
-        running, last_result = set(), None
+        previous = None
         for t, kind, action, gid in sorted(run.get('wire', [])):
-            if kind == 'goal':
-                if not running and last_result is not None:
-                    out.setdefault(action, []).append((t - last_result) * 1000.0)
-                running.add(gid)
-            else:
-                running.discard(gid)
-                last_result = t
+            if kind == 'goal' and previous is not None and previous[1] == 'result':
+                out.setdefault(action, []).append((t - previous[0]) * 1000.0)
+            previous = (t, kind)
     return out
 
 

@@ -67,13 +67,13 @@ def test_the_motion_bound_is_the_busier_arms_minimal_move_time(bench):
     assert bounds == [pytest.approx(3.0), pytest.approx(1.0)]
 
 
-def test_executive_overhead_counts_only_goals_sent_while_nothing_ran(bench):
+def test_executive_overhead_counts_goals_that_follow_a_result(bench):
     e = '/task_planner-'
     wire = [(1.000, 'goal', 'kinematics', e + '1'), (1.010, 'result', 'kinematics', e + '1'),
             (1.013, 'goal', 'move_robot', e + '2'),           # 3 ms after the result
             (2.000, 'result', 'move_robot', e + '2'),
             (2.002, 'goal', 'tomato_scan', e + '3'),          # 2 ms; SCAN: two goals at once
-            (2.003, 'goal', 'spatial_temporal', e + '4'),     # sent beside a running one: left out
+            (2.003, 'goal', 'spatial_temporal', e + '4'),     # follows a goal: left out
             (2.500, 'result', 'spatial_temporal', e + '4'),
             (2.600, 'result', 'tomato_scan', e + '3'),
             (2.605, 'goal', 'kinematics', e + '5')]           # 5 ms after the last result
