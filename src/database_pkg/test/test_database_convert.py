@@ -6,8 +6,9 @@ import pytest
 harvest_msgs = pytest.importorskip('harvest_msgs.msg', reason='harvest_msgs not built/sourced')
 
 import genpy  # noqa: E402
-from harvest_msgs.msg import (MissionEvent, PickRecord, SpatialTemporalGoal, Tomato,  # noqa: E402
-                              TomatoArray)
+from harvest_msgs.msg import (Checkpoint, MissionEvent, PickRecord, SpatialTemporalGoal,  # noqa: E402
+                              Tomato, TomatoArray)
+from geometry_msgs.msg import Point  # noqa: E402
 
 from database_pkg import convert  # noqa: E402
 from database_pkg.store import Store  # noqa: E402
@@ -77,3 +78,25 @@ def test_check_spatial_temporal_goal(goal, problem):
         assert result is None
     else:
         assert problem in result
+
+
+def test_checkpoint_round_trip_through_the_store(tmp_path):
+    msg = Checkpoint(mission_id='m-cp', robot='r1', stamp=genpy.Time(12, 0), points=[3, 1],
+                     point_index=0, picking_point=3, targets_done=[5, 6],
+                     done_positions=[Point(0.5, 0.1, 0.9), Point(0.6, 0.0, 1.0)], target_id=7,
+                     target_position=Point(0.55, -0.05, 0.95), phase='cut', holding=True)
+    with Store(str(tmp_path / 'cp.db')) as s:
+        s.put_checkpoint(convert.checkpoint_to_dict(msg))
+        assert convert.checkpoint_from_dict(s.latest_unfinished_checkpoint('r1')) == msg
+        between = Checkpoint(mission_id='m-cp', robot='r1', stamp=genpy.Time(13, 0), points=[3, 1],
+                             point_index=1, picking_point=1, target_id=-1)
+        between.target_position = Point(9.0, 9.0, 9.0)        # ignored without a target
+        s.put_checkpoint(convert.checkpoint_to_dict(between))
+        back = convert.checkpoint_from_dict(s.checkpoint('m-cp'))
+        assert back.target_id == -1 and back.target_position == Point()
+
+
+def test_checkpoint_with_mismatched_done_lists_is_rejected():
+    msg = Checkpoint(mission_id='m', targets_done=[1], done_positions=[])
+    with pytest.raises(ValueError, match='done_positions'):
+        convert.checkpoint_to_dict(msg)

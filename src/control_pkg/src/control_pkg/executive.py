@@ -45,10 +45,12 @@ from harvest_msgs.msg import (StartAction, StartGoal, MoveBaseAction, MoveBaseGo
                               KinematicsAction, MoveRobotAction, EndEffectorAction,
                               EndEffectorGoal, VisualServoAction)
 from control_pkg.smach_compat import smach
+from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import executive_goals as goals
 from control_pkg import mission as mission_lib
 from control_pkg.executive_states import (HarvestActionState, NextPoint, NextTarget, ChoosePull,
-                                          EndFruit, DoError, EstopMonitor, DoStop)
+                                          EndFruit, DoError, EstopMonitor, DoStop, Decide,
+                                          ResumeRecord)
 
 ARM_RIGHT = goals.ARM_RIGHT
 ARM_LEFT = goals.ARM_LEFT
@@ -123,16 +125,19 @@ class _Graph(object):
                                   exec_timeout=cfg['timeouts'].get(key, 30.0),
                                   server_wait_timeout=cfg['server_wait_timeout'], **kwargs)
 
-    def end_effector(self, command):
+    def end_effector(self, command, after=checkpoint_lib.PHASE_PLACED):
+        """after: the checkpoint phase once the valve has closed (SUCTION_OFF): placed (in the
+        box) or approach (let go: back on the plant)."""
         return self.action('DO_MOVE_ENDEFFECTOR', 'end_effector', EndEffectorAction,
-                           goal=EndEffectorGoal(command=command), result_cb=self.cb.ee_result)
+                           goal=EndEffectorGoal(command=command), goal_cb=self.cb.ee_goal,
+                           result_cb=self.cb.ee_result_then(command, after))
 
     def move_fixed(self, label, arm, positions):
         return self.action(label, 'move_robot', MoveRobotAction, arm=arm,
                            goal=goals.move_goal(arm, positions), result_cb=self.cb.move_result)
 
     def add_reach(self, suffix, goal_cb, result_cb, arm, then, unreachable, keys=('target',),
-                  move_result_cb=None, move_keys=(), move_out=()):
+                  move_result_cb=None, move_keys=(), move_out=(), phase=None):
         """DO_KINEMATICS<suffix> -> DO_MOVE_ROBOT<suffix>: solve an arm's joints, then move it."""
         smach.StateMachine.add('DO_KINEMATICS' + suffix, self.action(
             'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=goal_cb,
@@ -140,7 +145,8 @@ class _Graph(object):
             outcomes=['unreachable']),
             transitions={'succeeded': 'DO_MOVE_ROBOT' + suffix, 'unreachable': unreachable})
         smach.StateMachine.add('DO_MOVE_ROBOT' + suffix, self.action(
-            'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=arm, goal_cb=self.cb.move_goal(arm),
+            'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=arm,
+            goal_cb=self.cb.move_goal(arm, phase=phase),
             input_keys=['joint_goal'] + list(move_keys), output_keys=list(move_out),
             result_cb=move_result_cb or self.cb.move_result),
             transitions={'succeeded': then})
@@ -155,6 +161,10 @@ class _Graph(object):
         sm.userdata.target = None
         add = smach.StateMachine.add
         with sm:
+            # a restarted task planner continuing a mission makes the robot safe first
+            add('RESUME_CHECK', Decide(cb.resume_check, ['resume', 'start']),
+                transitions={'resume': 'RESUME', 'start': 'DO_START'})
+            add('RESUME', self.resume(), transitions={'succeeded': 'DO_START', 'aborted': 'DO_ERROR'})
             add('DO_START', self.action('DO_START', 'self_test', StartAction,
                                         goal_cb=cb.start_goal, result_cb=cb.start_result),
                 transitions={'succeeded': 'NEXT_POINT', 'aborted': 'DO_ERROR'})
@@ -248,7 +258,7 @@ class _Graph(object):
                        then='DO_TOMATO_SCAN_HELD' if self.relocate else 'succeeded',
                        unreachable='succeeded', keys=('target', 'pull'),
                        move_result_cb=cb.pull_move_result, move_keys=('target', 'pull'),
-                       move_out=('target',))
+                       move_out=('target',), phase=checkpoint_lib.PHASE_PULL)
         if self.relocate:
             # a failed look is not a fault: the left arm works with the first estimate
             smach.StateMachine.add('DO_TOMATO_SCAN_HELD', self.action(
@@ -289,12 +299,59 @@ class _Graph(object):
         sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
         with sm:
             smach.StateMachine.add('DO_MOVE_ENDEFFECTOR',
-                                   self.end_effector(EndEffectorGoal.SUCTION_OFF),
+                                   self.end_effector(EndEffectorGoal.SUCTION_OFF,
+                                                     after=checkpoint_lib.PHASE_APPROACH),
                                    transitions={'succeeded': 'DO_MOVE_ROBOT'})
             # the left arm home, and the waist back to 0 if the suction move turned it (the
             # next scan sees the row as the plan expects)
             smach.StateMachine.add('DO_MOVE_ROBOT', self.move_fixed(
                 'DO_MOVE_ROBOT', ARM_LEFT, list(self.cfg['home']['left']) + [0.0]))
+        return sm
+
+
+    # --- after a restart -------------------------------------------------------------------------
+    def resume(self):
+        """RESUME: the robot made safe from the checkpoint of the previous run (checkpoint.py,
+        `resume_plan`): the held fruit cut again and placed, or placed, or released; a fruit that
+        cannot be placed is let go where it is (recorded lost); then both arms home."""
+        c, cb = self.context, self.cb
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
+        add = smach.StateMachine.add
+        off = checkpoint_lib.PHASE_APPROACH
+        with sm:
+            add('RESUME_START', Decide(cb.resume_first, [checkpoint_lib.STEP_CUT,
+                                                         checkpoint_lib.STEP_PLACE,
+                                                         checkpoint_lib.STEP_RELEASE,
+                                                         checkpoint_lib.STEP_HOME]),
+                transitions={checkpoint_lib.STEP_CUT: 'DO_MOVE_ENDEFFECTOR_CUT',
+                             checkpoint_lib.STEP_PLACE: 'RESUME_PLACE',
+                             checkpoint_lib.STEP_RELEASE: 'RESUME_RELEASE',
+                             checkpoint_lib.STEP_HOME: 'RESUME_HOME'})
+            # a cut that fails leaves the fruit on its peduncle: let it go there
+            add('DO_MOVE_ENDEFFECTOR_CUT', self.end_effector(EndEffectorGoal.SHEAR_CUT),
+                transitions={'succeeded': 'RESUME_PLACE', 'aborted': 'RESUME_RELEASE'})
+            add('RESUME_PLACE', self.place(),
+                transitions={'succeeded': 'RESUME_RECORD', 'aborted': 'RESUME_DROP'})
+            add('RESUME_RECORD', ResumeRecord(c), transitions={'done': 'RESUME_HOME'})
+            add('RESUME_DROP', self.end_effector(EndEffectorGoal.SUCTION_OFF, after=off),
+                transitions={'succeeded': 'RESUME_RECORD_LOST'})
+            add('RESUME_RECORD_LOST', ResumeRecord(c, failed=True),
+                transitions={'done': 'RESUME_HOME'})
+            add('RESUME_RELEASE', self.end_effector(EndEffectorGoal.SUCTION_OFF, after=off),
+                transitions={'succeeded': 'RESUME_HOME'})
+            add('RESUME_HOME', self.home(), transitions={'succeeded': 'RESUME_DONE'})
+            add('RESUME_DONE', Decide(cb.resume_done, ['done']), transitions={'done': 'succeeded'})
+        return sm
+
+    def home(self):
+        """Both arms home: the left arm (and the waist back to 0), then the right arm."""
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
+        with sm:
+            smach.StateMachine.add('DO_MOVE_ROBOT', self.move_fixed(
+                'DO_MOVE_ROBOT', ARM_LEFT, list(self.cfg['home']['left']) + [0.0]),
+                transitions={'succeeded': 'DO_MOVE_ROBOT_RIGHT'})
+            smach.StateMachine.add('DO_MOVE_ROBOT_RIGHT', self.move_fixed(
+                'DO_MOVE_ROBOT', ARM_RIGHT, self.cfg['home']['right']))
         return sm
 
 
@@ -312,6 +369,21 @@ class _Callbacks(object):
         self.relocate_tolerance = float(cfg.get('relocate_tolerance', 0.0))
         self.relocate_radius_tolerance = float(cfg.get('relocate_radius_tolerance', 0.0))
         self.components = list(cfg.get('self_test_components', []))
+        self.skip_tolerance = float(cfg.get('resume_skip_tolerance', 0.03))
+
+    # --- after a restart (RESUME) ----------------------------------------------------------------
+    def resume_check(self, ud):
+        return 'resume' if self.context.resume is not None else 'start'
+
+    def resume_first(self, ud):
+        return self.context.resume.steps[0]
+
+    def resume_done(self, ud):
+        plan = self.context.resume
+        self.context.resume = None
+        self.context.publish_event('state', 'RESUME', 'robot safe after the restart: %s'
+                                   % (plan.why if plan is not None else ''))
+        return 'done'
 
     # --- DO_START, DO_MOVEBASE, SCAN -------------------------------------------------------------
     def start_goal(self, ud, goal):
@@ -342,6 +414,14 @@ class _Callbacks(object):
             return None
         tomatoes = result.tomatoes.tomatoes
         pickable = goals.pickable_in_order(tomatoes)
+        skip = self.context.skip.get(ud.picking_point)
+        if skip:
+            kept = checkpoint_lib.not_done(pickable, skip, self.skip_tolerance)
+            if len(kept) != len(pickable):
+                rospy.loginfo('executive: %d target(s) at picking point %d recorded before the '
+                              'restart: not tried again', len(pickable) - len(kept),
+                              ud.picking_point)
+            pickable = kept
         self.context.scene = goals.scene_of(tomatoes, self.frame)
         self.context.gone = set()
         ud.targets = pickable
@@ -382,8 +462,11 @@ class _Callbacks(object):
             return 'unreachable'
         return None
 
-    def move_goal(self, arm, key='joint_goal'):
+    def move_goal(self, arm, key='joint_goal', phase=None):
+        """phase: the checkpoint phase this move starts (the pull)."""
         def cb(ud, goal):
+            if phase is not None:
+                self.context.checkpoint.phase(phase)
             return goals.move_goal(arm, ud[key])
         return cb
 
@@ -396,6 +479,29 @@ class _Callbacks(object):
 
     def ee_result(self, ud, status, result):
         return self._reported('DO_MOVE_ENDEFFECTOR', status, result)
+
+    #: checkpoint phase a command starts (the valve may be open from the moment it is sent)
+    _EE_PHASE = {EndEffectorGoal.SUCTION_ON: checkpoint_lib.PHASE_SUCTION,
+                 EndEffectorGoal.SHEAR_CUT: checkpoint_lib.PHASE_CUT}
+
+    def ee_goal(self, ud, goal):
+        phase = self._EE_PHASE.get(goal.command)
+        if phase is not None:
+            self.context.checkpoint.phase(phase)
+        return goal
+
+    def ee_result_then(self, command, after):
+        """ee_result, and the checkpoint phase a succeeded `command` leaves: a cut fruit is off
+        the plant (place); a closed valve leaves `after`."""
+        phase = {EndEffectorGoal.SHEAR_CUT: checkpoint_lib.PHASE_PLACE,
+                 EndEffectorGoal.SUCTION_OFF: after}.get(command)
+
+        def cb(ud, status, result):
+            verdict = self.ee_result(ud, status, result)
+            if verdict is None and phase is not None and goals.succeeded(status):
+                self.context.checkpoint.phase(phase)
+            return verdict
+        return cb
 
     def servo_result(self, ud, status, result):
         return self._reported('DO_VISUALSERVOING', status, result)

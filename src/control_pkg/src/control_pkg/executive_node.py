@@ -6,19 +6,23 @@ Node `task_planner`
   Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: true = stop),
               plan/picking_points (std_msgs/Int32MultiArray, latched: the day's plan, visit order)
   Services:   ~start, ~emergency_stop, ~resume (std_srvs/Trigger; ~start when ~autostart is false)
-  Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR
+  Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR;
+              get_checkpoint, get_mission_records (database_pkg) once at start (~resume_unfinished)
   Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
+              mission/checkpoints (harvest_msgs/Checkpoint, latched, synchronous: the progress),
               mission/summary (std_msgs/String, JSON totals, latched), ~state (std_msgs/String, latched)
   Introspection: <~introspection_name>/smach/container_structure, container_status, container_init
   Subscribes (schedule pipelined): joint_states (sensor_msgs/JointState: where the arms are)
   Params: ~mission_id, ~picking_points (list of indices; default all of /track/picking_points),
     ~autostart (true), ~shutdown_when_done (false), ~robot_description_yaml (pipelined: robot.yaml,
-    default harvest_description's), and everything of config/executive.yaml.
+    default harvest_description's), ~robot_name (''), ~starts (written by the node: how often it
+    started in this launch), and everything of config/executive.yaml.
 """
 import math
 import os
 import threading
 import time
+import warnings
 
 import rospy
 import yaml
@@ -26,8 +30,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Int32MultiArray, String
 from std_srvs.srv import Trigger, TriggerResponse
 
-from harvest_msgs.msg import MissionEvent, PickRecord
+from geometry_msgs.msg import Point
+from harvest_msgs.msg import Checkpoint, MissionEvent, PickRecord
+from harvest_msgs.srv import GetCheckpoint, GetMissionRecords
 from control_pkg.smach_compat import IntrospectionServer
+from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import executive
 from control_pkg.executive_states import MissionContext
 from control_pkg import mission as mission_lib
@@ -38,6 +45,42 @@ _OUTCOME_CODES = {
     mission_lib.OUTCOME_LOST: PickRecord.OUTCOME_LOST,
     mission_lib.OUTCOME_FAILED: PickRecord.OUTCOME_FAILED,
 }
+_OUTCOME_NAMES = dict((v, k) for k, v in _OUTCOME_CODES.items())
+#: mission outcomes that finish its checkpoint (a preempted one, the node shut down, goes on)
+_FINISHED = ('succeeded', 'aborted')
+
+
+def snapshot_to_msg(snap, stamp):
+    """A checkpoint.Snapshot as harvest_msgs/Checkpoint."""
+    msg = Checkpoint(mission_id=snap.mission_id, robot=snap.robot, stamp=stamp,
+                     points=list(snap.points), point_index=snap.point_index,
+                     picking_point=snap.picking_point, target_id=snap.target_id,
+                     phase=snap.phase, holding=snap.holding, finished=snap.finished,
+                     outcome=snap.outcome)
+    msg.targets_done = [t for t, _ in snap.targets_done]
+    msg.done_positions = [Point(*xyz) for _, xyz in snap.targets_done]
+    if snap.target_position is not None:
+        msg.target_position = Point(*snap.target_position)
+    return msg
+
+
+def snapshot_from_msg(msg):
+    return checkpoint_lib.Snapshot(
+        msg.mission_id, msg.robot, msg.points, msg.point_index, msg.picking_point,
+        [(t, (p.x, p.y, p.z)) for t, p in zip(msg.targets_done, msg.done_positions)],
+        msg.target_id, (msg.target_position.x, msg.target_position.y, msg.target_position.z)
+        if msg.target_id >= 0 else None, msg.phase, msg.holding, msg.finished, msg.outcome)
+
+
+class _Subscribed(rospy.SubscribeListener):
+    """Sets an event when a subscriber connects to the publisher it listens to."""
+
+    def __init__(self):
+        rospy.SubscribeListener.__init__(self)
+        self.event = threading.Event()
+
+    def peer_subscribe(self, topic_name, topic_publish, peer_publish):
+        self.event.set()
 
 def defaults_path():
     """config/executive.yaml of the control_pkg package: the executive's defaults live only there."""
@@ -82,7 +125,7 @@ def merged_config(overrides, defaults=None):
             isinstance(p, (list, tuple)) and len(p) == 3 and
             all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in p) for p in pulls):
         raise ValueError('right_pulls must be a list of [dx, dy, dz] (finite, m), got %r' % (pulls,))
-    for key in ('pull_clearance', 'cut_clearance'):
+    for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait'):
         if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
             raise ValueError('%s must be a finite number >= 0 (m), got %r' % (key, cfg[key]))
     if cfg['schedule'] not in mission_lib.SCHEDULES:
@@ -111,9 +154,23 @@ class TaskPlanner(object):
         except ValueError as exc:
             rospy.logfatal('task_planner: bad configuration: %s', exc)
             raise
+        # every (re)start of the node in this launch counts (the parameter server outlives it)
+        self.starts = int(rospy.get_param('~starts', 0)) + 1
+        rospy.set_param('~starts', self.starts)
+        self.robot_name = str(rospy.get_param('~robot_name', ''))
+        # synchronous (no queue): once publish() returns the checkpoint is on its way in the
+        # kernel, so a SIGKILL right after it does not lose it; latched for a respawned store
+        self._checkpoint_listener = _Subscribed()
+        with warnings.catch_warnings():     # rospy warns of queue_size None: deliberate here
+            warnings.simplefilter('ignore', SyntaxWarning)
+            self._checkpoint_pub = rospy.Publisher('mission/checkpoints', Checkpoint, latch=True,
+                                                   subscriber_listener=self._checkpoint_listener,
+                                                   queue_size=None)
+        resumed = self._unfinished_checkpoint()
         # wall clock, not ROS time: rospy.get_time() is 0 before the first /clock under sim time
-        self.mission_id = rospy.get_param('~mission_id', '') or mission_lib.make_mission_id(
-            time.time(), os.urandom(2).hex())
+        self.mission_id = resumed.mission_id if resumed is not None else (
+            rospy.get_param('~mission_id', '') or mission_lib.make_mission_id(
+                time.time(), os.urandom(2).hex()))
         self._plan = None
         self._plan_received = threading.Event()
         self._plan_sub = rospy.Subscriber('plan/picking_points', Int32MultiArray, self._plan_cb, queue_size=1)
@@ -122,7 +179,9 @@ class TaskPlanner(object):
         self.shutdown_when_done = rospy.get_param('~shutdown_when_done', False)
 
         self._record_pub = rospy.Publisher('mission/pick_records', PickRecord, queue_size=100)
-        self._event_pub = rospy.Publisher('mission/events', MissionEvent, queue_size=100)
+        self._event_listener = _Subscribed()
+        self._event_pub = rospy.Publisher('mission/events', MissionEvent, queue_size=100,
+                                          subscriber_listener=self._event_listener)
         self._summary_pub = rospy.Publisher('mission/summary', String, queue_size=1, latch=True)
         self._state_pub = rospy.Publisher('~state', String, queue_size=1, latch=True)
         self._halt = None                  # persistent halt_all proxy, made on first use
@@ -130,9 +189,15 @@ class TaskPlanner(object):
 
         self.estop = threading.Event()
         self.resume = threading.Event()
+        self.checkpoints = checkpoint_lib.CheckpointKeeper(self.mission_id, self.robot_name,
+                                                           publish=self.publish_checkpoint)
         self.context = MissionContext(self.config, self.progress, self.recorder,
                                       publish_event=self.publish_event,
-                                      publish_record=self.publish_record, halt=self.halt_axes)
+                                      publish_record=self.publish_record, halt=self.halt_axes,
+                                      checkpoint=self.checkpoints)
+        self.resuming = resumed is not None
+        if resumed is not None:
+            self._prepare_resume(resumed)
         if self.config['schedule'] == mission_lib.SCHEDULE_PIPELINED:
             self._setup_pipelined()
         self.sm = executive.build_state_machine(self.context, self.estop, self.resume)
@@ -146,7 +211,80 @@ class TaskPlanner(object):
         self.outcome = None
         self._thread = None
         rospy.on_shutdown(self.on_shutdown)
+        if self.starts > 1:
+            self._event_listener.event.wait(float(self.config['checkpoint_wait']))
+            plan = self.context.resume
+            self.publish_event('restart', 'RESTART', checkpoint_lib.restart_detail(
+                self.starts, self.mission_id if self.resuming else None,
+                plan.why if plan is not None else ''))
         rospy.loginfo('task_planner: mission %s ready', self.mission_id)
+
+    # --- crash-safe continuation ---------------------------------------------------------------
+    def _unfinished_checkpoint(self):
+        """The latest unfinished checkpoint of this robot to continue (a Snapshot), or None.
+        One not to continue (a new mission id asked for, or a new launch with
+        resume_after_relaunch false) is closed as 'abandoned'."""
+        if not self.config['resume_unfinished']:
+            return None
+        wait = float(self.config['checkpoint_wait'])
+        try:
+            rospy.wait_for_service('get_checkpoint', timeout=wait)
+            resp = rospy.ServiceProxy('get_checkpoint', GetCheckpoint)(robot=self.robot_name)
+        except (rospy.ROSException, rospy.ServiceException) as exc:
+            rospy.logwarn('task_planner: no checkpoint read (%s): starting a new mission', exc)
+            return None
+        if not resp.found:
+            rospy.loginfo('task_planner: %s', resp.message)
+            return None
+        snap = snapshot_from_msg(resp.checkpoint)
+        asked = rospy.get_param('~mission_id', '')
+        why = None
+        if asked and asked != snap.mission_id:
+            why = 'mission %s asked for' % asked
+        elif self.starts == 1 and not self.config['resume_after_relaunch']:
+            why = 'a new launch (resume_after_relaunch false)'
+        if why is None:
+            rospy.logwarn('task_planner: continuing unfinished mission %s (picking point %d, '
+                          'phase %r)', snap.mission_id, snap.picking_point, snap.phase)
+            return snap
+        rospy.logwarn('task_planner: unfinished mission %s abandoned: %s', snap.mission_id, why)
+        self._checkpoint_listener.event.wait(wait)
+        closed = checkpoint_lib.CheckpointKeeper(snap.mission_id, snap.robot)
+        closed.restore(snap)
+        self._checkpoint_pub.publish(snapshot_to_msg(closed.finish('abandoned'), rospy.Time.now()))
+        return None
+
+    def _recorded(self, mission_id):
+        """The pick records of `mission_id` already in the store (get_mission_records)."""
+        try:
+            rospy.wait_for_service('get_mission_records', timeout=float(self.config['checkpoint_wait']))
+            resp = rospy.ServiceProxy('get_mission_records', GetMissionRecords)(mission_id=mission_id)
+        except (rospy.ROSException, rospy.ServiceException) as exc:
+            rospy.logwarn('task_planner: the records of mission %s cannot be read (%s)', mission_id, exc)
+            return []
+        return list(resp.records) if resp.success else []
+
+    def _prepare_resume(self, snap):
+        records = self._recorded(snap.mission_id)
+        recorded = [(r.picking_point, r.target_id,
+                     (r.pick_point.point.x, r.pick_point.point.y, r.pick_point.point.z))
+                    for r in records]
+        plan = checkpoint_lib.resume_plan(snap, recorded, float(self.config['resume_skip_tolerance']))
+        self.recorder.restore([(r.picking_point, r.target_id, recorded[i][2],
+                                _OUTCOME_NAMES.get(r.outcome, mission_lib.OUTCOME_FAILED), r.reason,
+                                r.cycle_time) for i, r in enumerate(records)],
+                              points_visited=max(snap.point_index, 0))
+        self.checkpoints.restore(snap)
+        if snap.points:
+            self.progress.resume_at(snap.points, plan.point_index)
+        self.context.skip[snap.picking_point] = plan.skip
+        self.context.resume = plan
+        self.context.resume_snapshot = snap
+        rospy.logwarn('task_planner: resume plan: %s (steps %s; %d record(s) of this mission '
+                      'already stored)', plan.why, ', '.join(plan.steps), len(records))
+
+    def publish_checkpoint(self, snap):
+        self._checkpoint_pub.publish(snapshot_to_msg(snap, rospy.Time.now()))
 
     def _setup_pipelined(self):
         """The pipelined schedule's guard needs the robot's geometry (motion_pkg's kinematics,
@@ -271,7 +409,8 @@ class TaskPlanner(object):
 
     # --- running ---------------------------------------------------------------------------------
     def start(self):
-        self.publish_event('state', 'START', 'mission %s started' % self.mission_id)
+        self.publish_event('state', 'START', 'mission %s %s' % (
+            self.mission_id, 'continued after a restart' if self.resuming else 'started'))
         self._thread = threading.Thread(target=self._run, name='task_planner')
         self._thread.daemon = True
         self._thread.start()
@@ -284,6 +423,10 @@ class TaskPlanner(object):
             self.context.fail('executive exception: %s' % exc)
             self.outcome = 'aborted'
         self.recorder.finish(rospy.get_time())
+        # a mission cut short by the node's shutdown (SMACH may then end it 'aborted') goes on
+        # at the next start: only a mission that really ended finishes its checkpoint
+        if self.outcome in _FINISHED and not rospy.is_shutdown():
+            self.checkpoints.finish(self.outcome)
         totals = self.recorder.totals()
         totals['outcome'] = self.outcome
         totals['last_error'] = self.context.last_error

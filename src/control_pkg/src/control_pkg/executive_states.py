@@ -16,13 +16,15 @@ import threading
 import rospy
 
 from control_pkg.smach_compat import smach, SimpleActionState
+from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import mission as mission_lib
 
 
 class MissionContext(object):
     """What the states share besides userdata: configuration, progress, record and logging hooks."""
 
-    def __init__(self, config, progress, recorder, publish_event=None, publish_record=None, halt=None):
+    def __init__(self, config, progress, recorder, publish_event=None, publish_record=None, halt=None,
+                 checkpoint=None):
         self.config = config
         self.progress = progress
         self.recorder = recorder
@@ -38,6 +40,13 @@ class MissionContext(object):
         self.geometry = None
         self.gate = None
         self._joints = {}
+        # crash-safe continuation (checkpoint.py): the progress as it goes (published at every
+        # transition that matters), the plan of a resumed mission and the targets recorded
+        # before the restart, per picking point (positions, skipped after the scan there)
+        self.checkpoint = checkpoint or checkpoint_lib.CheckpointKeeper(recorder.mission_id)
+        self.resume = None
+        self.resume_snapshot = None
+        self.skip = {}
 
     def set_joints(self, names, positions):
         """Merge a (partial) joint_states message."""
@@ -211,6 +220,8 @@ class NextPoint(smach.State):
         if point is None:
             return 'done'
         ud.picking_point = point
+        progress = self._context.progress
+        self._context.checkpoint.point(progress.points, progress.index)
         self._context.recorder.visit_point()
         self._context.publish_event('state', 'NEXT_POINT', 'picking point %d' % point)
         rospy.loginfo('executive: picking point %d', point)
@@ -239,6 +250,7 @@ class NextTarget(smach.State):
         ud.target = target
         p = target.pick_point.point
         self._context.recorder.begin_fruit(ud.picking_point, target.id, (p.x, p.y, p.z), self._context.now())
+        self._context.checkpoint.target(target.id, (p.x, p.y, p.z))
         rospy.loginfo('executive: target %d (order %d) at (%.3f, %.3f, %.3f) in %s', target.id,
                       target.pick_order, p.x, p.y, p.z, target.pick_point.header.frame_id)
         return 'target'
@@ -319,6 +331,8 @@ class EndFruit(smach.State):
             self._context.gone.add(record.target_id)
         if record is not None:
             self._context.publish_record(record)
+            # after the record: a restart between the two finds the record in the store
+            self._context.checkpoint.target_done(record.target_id, record.position)
             rospy.loginfo('executive: target %d %s after %.1f s%s', record.target_id, record.outcome,
                           record.cycle_time, (' (%s)' % reason) if reason else '')
         return 'done'
@@ -430,3 +444,38 @@ class DoStop(smach.State):
         self._context.publish_event('resume', 'DO_STOP', 'mission resumed')
         rospy.loginfo('executive: resumed')
         return 'resume'
+
+
+class ResumeRecord(smach.State):
+    """After a restart: the record of the fruit the previous run was holding (the resume plan's
+    `record`, or `record_if_failed` with `failed`), once; nothing when the plan has none (its
+    record was out already, or the fruit went back onto the plant).
+
+    Outcomes: done
+    """
+
+    def __init__(self, context, failed=False):
+        smach.State.__init__(self, outcomes=['done'])
+        self._context = context
+        self._failed = failed
+
+    def execute(self, ud):
+        c = self._context
+        plan, snap = c.resume, c.resume_snapshot
+        outcome = None if plan is None else (plan.record_if_failed if self._failed else plan.record)
+        if outcome is None or snap is None or snap.target_id < 0 or snap.target_position is None:
+            return 'done'
+        reason = ('' if outcome == mission_lib.OUTCOME_PICKED else
+                  'released after a restart of the task planner: it could not be placed (%s)'
+                  % (c.last_error or 'no reason given'))
+        now = c.now()
+        c.recorder.begin_fruit(snap.picking_point, snap.target_id, snap.target_position, now)
+        record = c.recorder.end_fruit(outcome, now, reason)
+        c.publish_record(record)
+        c.checkpoint.target_done(record.target_id, record.position)
+        # placed or dropped, it is not on the plant any more: the new scan does not try it
+        c.skip.setdefault(snap.picking_point, []).append(tuple(record.position))
+        c.resume.record = c.resume.record_if_failed = None      # once
+        rospy.loginfo('executive: held fruit %d of the previous run %s%s', record.target_id,
+                      outcome, (' (%s)' % reason) if reason else '')
+        return 'done'

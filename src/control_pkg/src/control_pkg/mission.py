@@ -62,6 +62,15 @@ class Progress(object):
     def mark_interrupted(self):
         self.interrupted = True
 
+    def resume_at(self, points, index):
+        """Continue a plan after a restart of the executive: the next advance() returns
+        points[index] again (scanned again), then the points after it."""
+        self._set(points)
+        if not 0 <= int(index) <= len(self.points):
+            raise ValueError('resume index %r outside the plan of %d points' % (index, len(self.points)))
+        self.index = int(index)
+        self.interrupted = True
+
 
 class FruitRecord(object):
     """The states one target went through and how it ended."""
@@ -109,6 +118,18 @@ class MissionRecorder(object):
     def finish(self, now):
         with self._lock:
             self.end_time = now
+
+    def restore(self, records, points_visited=0):
+        """A mission continued after a restart: the fruit recorded before it (tuples of
+        picking_point, target_id, position, outcome, reason, cycle_time) count in the totals."""
+        with self._lock:
+            for point, target, position, outcome, reason, cycle in records:
+                if outcome not in OUTCOMES:
+                    raise ValueError('unknown fruit outcome %r' % (outcome, ))
+                fruit = FruitRecord(point, target, tuple(position), 0.0)
+                fruit.outcome, fruit.reason, fruit.end_time = outcome, reason, float(cycle)
+                self.fruits.append(fruit)
+            self.points_visited = int(points_visited)
 
     def visit_point(self):
         with self._lock:

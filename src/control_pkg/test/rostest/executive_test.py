@@ -10,7 +10,7 @@ from smach_msgs.msg import SmachContainerStatus, SmachContainerStructure
 from std_msgs.msg import Bool, Int32, Int32MultiArray, String
 from std_srvs.srv import Trigger
 
-from harvest_msgs.msg import EndEffectorGoal, PickRecord
+from harvest_msgs.msg import EndEffectorGoal, MissionEvent, PickRecord
 
 WAIT = 60.0
 
@@ -32,6 +32,9 @@ class Watcher(object):
         rospy.Subscriber('/harvest_executive/smach/container_status', SmachContainerStatus, self._status)
         rospy.Subscriber('mock/halt_count', Int32, self._halt)
         rospy.Subscriber('task_planner/state', String, self._state)
+        self.events = []
+        rospy.Subscriber('mission/events', MissionEvent,
+                         lambda m: self._update(lambda: self.events.append(m)))
         self.goals = []
         self.goals_sub = rospy.Subscriber('mock/goals', String,
                                           lambda m: self._update(lambda: self.goals.append(m.data)))
@@ -202,6 +205,31 @@ class ExecutiveTest(unittest.TestCase):
         self.assertEqual(ee[:4], ['end_effector %d' % c for c in (
             EndEffectorGoal.SUCTION_ON, EndEffectorGoal.SHEAR_CUT, EndEffectorGoal.SUCTION_OFF,
             EndEffectorGoal.SUCTION_ON)], w.goals)
+
+    def check_resume(self):
+        """A restarted task planner (~starts 1 given: this is its second start) with the mock's
+        unfinished checkpoint: it makes the robot safe as ~expect_first_goals, goes on at the
+        checkpoint's picking point with the same mission id, and records ~expect_record_ids
+        (each once)."""
+        w = self.w
+        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
+        s = w.summary
+        self.assertEqual((s['mission_id'], s['outcome']), ('m-old', 'succeeded'), s)
+        self.assertEqual(s['picked'], rospy.get_param('~expect_picked'), s)
+        first = rospy.get_param('~expect_first_goals')
+        moves = [g for g in w.goals if not g.startswith('checkpoint')]
+        self.assertEqual(moves[:len(first)], first, w.goals)
+        self.assertEqual([g for g in moves if g.startswith('move_base')], ['move_base 1'], w.goals)
+        self.assertTrue(w.wait(lambda: w.goals and w.goals[-1] == 'checkpoint - 0 1'),
+                        'the finished checkpoint never came: %s' % w.goals)
+        ids = sorted(r.target_id for r in w.records)
+        self.assertEqual(ids, sorted(rospy.get_param('~expect_record_ids')), w.records)
+        self.assertTrue(all(r.mission_id == 'm-old' for r in w.records))
+        restarts = [e for e in w.events if e.kind == 'restart']
+        self.assertEqual(len(restarts), 1, w.events)
+        self.assertIn('start 2', restarts[0].detail)
+        self.assertIn('m-old', restarts[0].detail)
+        self.assertEqual(restarts[0].mission_id, 'm-old')
 
     def check_missing(self):
         w = self.w

@@ -10,6 +10,13 @@ Params:
   ~per_arm_moves (bool, false): move_robot runs one goal per arm at once (else one goal: a
       second replaces the first, as motion_pkg's); publishes "move_robot overlap" on mock/goals
       when goals of both arms run at the same time
+  ~checkpoint (dict, optional): what get_checkpoint serves as the robot's unfinished checkpoint
+      (mission_id, points, point_index, target_id, target_y, phase, holding, done_y: list of
+      [target_id, y]; tomatoes at x 0.5, z 0.9 as the scan puts them) until a finished checkpoint of
+      that mission comes; none: get_checkpoint finds nothing
+  ~records (list of [picking_point, target_id, y], optional): get_mission_records' picked records
+Serves get_checkpoint and get_mission_records (database_pkg's), notes every checkpoint on mock/goals
+("checkpoint <phase> <holding> <finished>").
 Publishes mock/halt_count (std_msgs/Int32, latched), mock/goals (std_msgs/String: "<action> <detail>")
 and joint_states (the waist at 0, the arms at their home poses, then at the goal of every finished
 move).
@@ -23,6 +30,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Int32, String
 from std_srvs.srv import Trigger, TriggerResponse
 
+from geometry_msgs.msg import Point
+from harvest_msgs.msg import Checkpoint, PickRecord
+from harvest_msgs.srv import (GetCheckpoint, GetCheckpointResponse, GetMissionRecords,
+                              GetMissionRecordsResponse)
 from harvest_msgs.msg import (StartAction, StartResult, MoveBaseAction, MoveBaseResult, TomatoScanAction,
                               TomatoScanResult, SpatialTemporalAction, SpatialTemporalResult,
                               KinematicsAction, KinematicsResult, MoveRobotAction, MoveRobotResult,
@@ -53,6 +64,11 @@ class MockServers(object):
         for arm, home in (('left', (0.0, 0.7854, 2.3562)), ('right', (0.0, -0.7854, -2.3562))):
             self.set_arm(arm, home)
         rospy.Service('halt_all', Trigger, self.halt)
+        self.checkpoint = rospy.get_param('~checkpoint', None)
+        self.records = rospy.get_param('~records', [])
+        rospy.Subscriber('mission/checkpoints', Checkpoint, self.on_checkpoint, queue_size=100)
+        rospy.Service('get_checkpoint', GetCheckpoint, self.get_checkpoint)
+        rospy.Service('get_mission_records', GetMissionRecords, self.get_records)
         self.servers = []
         for name, spec, cb in [('self_test', StartAction, self.self_test), ('move_base', MoveBaseAction, self.move_base),
                                ('tomato_scan', TomatoScanAction, self.scan),
@@ -76,6 +92,34 @@ class MockServers(object):
                                positions))
         names = sorted(self.joints)
         self._joints_pub.publish(JointState(name=names, position=[self.joints[n] for n in names]))
+
+    def on_checkpoint(self, msg):
+        self.note('checkpoint %s %d %d' % (msg.phase or '-', msg.holding, msg.finished))
+        if msg.finished and self.checkpoint and msg.mission_id == self.checkpoint['mission_id']:
+            self.checkpoint = None
+
+    def get_checkpoint(self, req):
+        c = self.checkpoint
+        if not c:
+            return GetCheckpointResponse(found=False, message='no unfinished mission (mock)')
+        msg = Checkpoint(mission_id=c['mission_id'], points=c['points'],
+                         point_index=c['point_index'], picking_point=c['points'][c['point_index']],
+                         target_id=c.get('target_id', -1), phase=c.get('phase', ''),
+                         holding=c.get('holding', False))
+        msg.target_position = Point(0.5, c.get('target_y', 0.0), 0.9)
+        msg.targets_done = [int(t) for t, _ in c.get('done_y', [])]
+        msg.done_positions = [Point(0.5, y, 0.9) for _, y in c.get('done_y', [])]
+        return GetCheckpointResponse(found=True, message='mock', checkpoint=msg)
+
+    def get_records(self, req):
+        resp = GetMissionRecordsResponse(success=True, mission_id=req.mission_id)
+        for point, target, y in self.records:
+            rec = PickRecord(mission_id=req.mission_id, picking_point=point, target_id=target,
+                             outcome=PickRecord.OUTCOME_PICKED, cycle_time=10.0)
+            rec.pick_point.header.frame_id = 'base_link'
+            rec.pick_point.point = Point(0.5, y, 0.9)
+            resp.records.append(rec)
+        return resp
 
     def note(self, text):
         self._goal_pub.publish(String(data=text))

@@ -6,11 +6,12 @@ Only message classes (genpy) are used, so this module is testable without a ROS 
 import math
 
 import genpy
-from geometry_msgs.msg import PointStamped
-from harvest_msgs.msg import MissionEvent, PickRecord
+from geometry_msgs.msg import Point, PointStamped
+from harvest_msgs.msg import Checkpoint, MissionEvent, PickRecord
 
 __all__ = ['observations_from_tomatoes', 'pick_record_to_dict', 'pick_record_from_dict',
-           'event_to_dict', 'event_from_dict', 'check_spatial_temporal_goal']
+           'event_to_dict', 'event_from_dict', 'check_spatial_temporal_goal',
+           'checkpoint_to_dict', 'checkpoint_from_dict']
 
 
 def _sec(stamp):
@@ -115,3 +116,39 @@ def event_to_dict(msg):
 def event_from_dict(row):
     return MissionEvent(mission_id=row['mission_id'], stamp=_time(row['stamp']), kind=row['kind'],
                         state=row['state'], detail=row['detail'])
+
+
+def checkpoint_to_dict(msg):
+    """A harvest_msgs/Checkpoint as the store's dict (Store.put_checkpoint)."""
+    if len(msg.targets_done) != len(msg.done_positions):
+        raise ValueError('checkpoint: %d targets_done but %d done_positions'
+                         % (len(msg.targets_done), len(msg.done_positions)))
+    return {
+        'mission_id': msg.mission_id,
+        'robot': msg.robot,
+        'stamp': _sec(msg.stamp),
+        'points': list(msg.points),
+        'point_index': msg.point_index,
+        'picking_point': msg.picking_point,
+        'targets_done': [(t, _xyz(p)) for t, p in zip(msg.targets_done, msg.done_positions)],
+        'target_id': msg.target_id,
+        'target_position': _xyz(msg.target_position) if msg.target_id >= 0 else None,
+        'phase': msg.phase,
+        'holding': bool(msg.holding),
+        'finished': bool(msg.finished),
+        'outcome': msg.outcome,
+    }
+
+
+def checkpoint_from_dict(row):
+    """The store's checkpoint dict as a harvest_msgs/Checkpoint."""
+    msg = Checkpoint(mission_id=row['mission_id'], robot=row['robot'], stamp=_time(row['stamp']),
+                     points=list(row['points']), point_index=row['point_index'],
+                     picking_point=row['picking_point'], target_id=row['target_id'],
+                     phase=row['phase'], holding=bool(row['holding']),
+                     finished=bool(row['finished']), outcome=row['outcome'])
+    msg.targets_done = [int(t) for t, _ in row['targets_done']]
+    msg.done_positions = [Point(*p) for _, p in row['targets_done']]
+    if row['target_position'] is not None:
+        msg.target_position = Point(*row['target_position'])
+    return msg

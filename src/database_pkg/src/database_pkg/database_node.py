@@ -9,9 +9,11 @@ Actions served:
 Actions used:
   image_processing (harvest_msgs/ImageProcessing)
 Subscribed topics:
-  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent)
+  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
+  mission/checkpoints (harvest_msgs/Checkpoint: the executive's progress, one row per mission)
 Services:
   get_mission_records (harvest_msgs/GetMissionRecords): empty mission_id = the latest mission.
+  get_checkpoint (harvest_msgs/GetCheckpoint): the latest unfinished checkpoint of a robot.
 Published:
   /diagnostics (via diagnostic_updater): db path, size, schema, row counts, free disk, errors.
 Params (private): db_path, synchronous, site, queue_size, server_timeout, result_timeout,
@@ -29,13 +31,14 @@ import diagnostic_updater
 import rospy
 from actionlib_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticStatus
-from harvest_msgs.msg import (ImageProcessingAction, ImageProcessingGoal, MissionEvent,
+from harvest_msgs.msg import (Checkpoint, ImageProcessingAction, ImageProcessingGoal, MissionEvent,
                               PickRecord, SpatialTemporalAction, SpatialTemporalFeedback,
                               SpatialTemporalResult)
-from harvest_msgs.srv import GetMissionRecords, GetMissionRecordsResponse
+from harvest_msgs.srv import (GetCheckpoint, GetCheckpointResponse, GetMissionRecords,
+                              GetMissionRecordsResponse)
 
 from database_pkg import convert
-from database_pkg.store import SchemaVersionError, Store, StoreError
+from database_pkg.store import LOCAL_TABLES, TABLES, SchemaVersionError, Store, StoreError
 
 DEFAULT_DB_PATH = '~/.ros/harvest/harvest.db'
 
@@ -45,6 +48,8 @@ IMAGE_PROCESSING_ACTION = 'image_processing'
 PICK_RECORDS_TOPIC = 'mission/pick_records'
 EVENTS_TOPIC = 'mission/events'
 GET_MISSION_RECORDS_SERVICE = 'get_mission_records'
+CHECKPOINTS_TOPIC = 'mission/checkpoints'
+GET_CHECKPOINT_SERVICE = 'get_checkpoint'
 
 # Diagnostics thresholds.
 DISK_FREE_WARN_BYTES = 500 * 1024 * 1024
@@ -147,9 +152,13 @@ class DatabaseNode(object):
             rospy.Subscriber(PICK_RECORDS_TOPIC, PickRecord, self._on_pick_record,
                              queue_size=queue_size),
             rospy.Subscriber(EVENTS_TOPIC, MissionEvent, self._on_event, queue_size=queue_size),
+            rospy.Subscriber(CHECKPOINTS_TOPIC, Checkpoint, self._on_checkpoint,
+                             queue_size=queue_size),
         ]
         self._service = rospy.Service(GET_MISSION_RECORDS_SERVICE, GetMissionRecords,
                                       self._on_get_records)
+        self._checkpoint_service = rospy.Service(GET_CHECKPOINT_SERVICE, GetCheckpoint,
+                                                 self._on_get_checkpoint)
         self._timer = rospy.Timer(rospy.Duration(DIAGNOSTICS_PERIOD_S),
                                   lambda _event: self._updater.update())
 
@@ -180,7 +189,29 @@ class DatabaseNode(object):
         self._write('mission event', lambda: self._store.add_event(
             convert.event_to_dict(msg), site=self._site))
 
-    # ------------------------------------------------------------ service
+    def _on_checkpoint(self, msg):
+        self._write('checkpoint', lambda: self._store.put_checkpoint(
+            convert.checkpoint_to_dict(msg), site=self._site))
+
+    # ------------------------------------------------------------ services
+
+    def _on_get_checkpoint(self, req):
+        resp = GetCheckpointResponse()
+        try:
+            row = self._store.latest_unfinished_checkpoint(req.robot)
+        except sqlite3.Error as e:
+            resp.found = False
+            resp.message = 'database read failed: %s' % e
+            return resp
+        if row is None:
+            resp.found = False
+            resp.message = 'no unfinished mission of robot %r' % req.robot
+            return resp
+        resp.found = True
+        resp.checkpoint = convert.checkpoint_from_dict(row)
+        resp.message = 'mission %s at picking point %d, phase %r' % (
+            row['mission_id'], row['picking_point'], row['phase'])
+        return resp
 
     def _on_get_records(self, req):
         resp = GetMissionRecordsResponse()
@@ -311,7 +342,7 @@ class DatabaseNode(object):
     def _diagnose(self, stat):
         level, summary = DiagnosticStatus.OK, 'database OK'
         try:
-            counts = self._store.row_counts()
+            counts = self._store.row_counts(TABLES + LOCAL_TABLES)
         except sqlite3.Error as e:
             counts = {}
             level, summary = DiagnosticStatus.ERROR, 'database unreadable: %s' % e

@@ -33,14 +33,16 @@ import time
 import uuid
 
 __all__ = ['Store', 'StoreError', 'SchemaVersionError', 'MIGRATIONS', 'SCHEMA_VERSION',
-           'OUTCOMES', 'RIPENESS_STAGES']
+           'OUTCOMES', 'RIPENESS_STAGES', 'PHASES']
 
 # PickRecord.OUTCOME_* and Tomato.STAGE_* (harvest_msgs), repeated here so this module needs no ROS.
 OUTCOMES = (0, 1, 2, 3)
 RIPENESS_STAGES = (0, 1, 2, 3)
 
 SYNCHRONOUS_MODES = ('NORMAL', 'FULL', 'EXTRA')
-TABLES = ('missions', 'observations', 'pick_records', 'events')
+TABLES = ('missions', 'observations', 'pick_records', 'events')     # the uploader's outbox
+LOCAL_TABLES = ('checkpoints', )                                       # never uploaded
+PHASES = ('', 'approach', 'suction', 'pull', 'cut', 'place', 'placed')  # Checkpoint.phase
 
 # Ordered migrations: (version reached, description, statements). Never edit a released entry.
 MIGRATIONS = (
@@ -124,6 +126,29 @@ MIGRATIONS = (
                 UPDATE missions SET uploaded = 0, revision = OLD.revision + 1
                 WHERE id = NEW.id;
             END""",
+    )),
+    # control_pkg's executive: where a restarted task planner continues (one row per mission,
+    # replaced by every newer checkpoint; local only, not in the uploader's outbox)
+    (4, 'checkpoints of the executive (crash-safe continuation)', (
+        """CREATE TABLE checkpoints (
+            id TEXT PRIMARY KEY,
+            created REAL NOT NULL,
+            updated REAL NOT NULL,
+            mission_id TEXT NOT NULL UNIQUE REFERENCES missions(mission_id),
+            robot TEXT NOT NULL,
+            stamp REAL NOT NULL,
+            points TEXT NOT NULL,
+            point_index INTEGER NOT NULL,
+            picking_point INTEGER NOT NULL,
+            targets_done TEXT NOT NULL,
+            target_id INTEGER NOT NULL,
+            target_x REAL, target_y REAL, target_z REAL,
+            phase TEXT NOT NULL,
+            holding INTEGER NOT NULL,
+            finished INTEGER NOT NULL,
+            outcome TEXT NOT NULL
+        )""",
+        "CREATE INDEX checkpoints_unfinished ON checkpoints(robot, updated) WHERE finished = 0",
     )),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
@@ -483,6 +508,68 @@ class Store(object):
                             (stamp, detail, mission_id))
         return row_id
 
+    def put_checkpoint(self, checkpoint, site=''):
+        """Store the executive's checkpoint of a mission (a dict), replacing the older one.
+
+        Keys: mission_id, robot, stamp, points (ints), point_index, picking_point,
+        targets_done ([(target_id, (x, y, z)), ...]), target_id (-1 = none), target_position
+        ((x, y, z) or None), phase (one of PHASES), holding, finished, outcome.
+        A finished checkpoint stays finished: a late unfinished one of the same mission is
+        ignored. Returns True when it was stored.
+        """
+        what = 'checkpoint'
+        mission_id = _mission_id(what, checkpoint)
+        robot = _text(what, 'robot', _field(what, checkpoint, 'robot'))
+        stamp = _real(what, 'stamp', _field(what, checkpoint, 'stamp'), minimum=0.0)
+        points = _field(what, checkpoint, 'points')
+        if isinstance(points, str):
+            raise ValueError('%s: points must be a list' % what)
+        points = [_int(what, 'points[%d]' % i, p) for i, p in enumerate(points)]
+        point_index = _int(what, 'point_index', _field(what, checkpoint, 'point_index'))
+        if point_index < -1 or point_index > len(points):
+            raise ValueError('%s: point_index must be in [-1, %d], got %d'
+                             % (what, len(points), point_index))
+        done = []
+        for i, item in enumerate(_field(what, checkpoint, 'targets_done')):
+            try:
+                target, position = item
+            except (TypeError, ValueError):
+                raise ValueError('%s: targets_done[%d] must be (target_id, (x, y, z))' % (what, i))
+            done.append([_int(what, 'targets_done[%d]' % i, target),
+                         list(_position(what, position, allow_none=False))])
+        phase = _text(what, 'phase', _field(what, checkpoint, 'phase'))
+        if phase not in PHASES:
+            raise ValueError('%s: phase must be one of %s, got %r' % (what, PHASES, phase))
+        holding = _field(what, checkpoint, 'holding')
+        finished = _field(what, checkpoint, 'finished')
+        for key, value in (('holding', holding), ('finished', finished)):
+            if not isinstance(value, bool):
+                raise ValueError('%s: %s must be a bool, got %r' % (what, key, value))
+        tx, ty, tz = _position(what, _field(what, checkpoint, 'target_position'), allow_none=True)
+        row = (robot, stamp, json.dumps(points), point_index,
+               _int(what, 'picking_point', _field(what, checkpoint, 'picking_point')),
+               json.dumps(done), _int(what, 'target_id', _field(what, checkpoint, 'target_id')),
+               tx, ty, tz, phase, int(holding), int(finished),
+               _text(what, 'outcome', _field(what, checkpoint, 'outcome')))
+        with self._transaction() as cur:
+            self._ensure_mission(cur, mission_id, stamp, _text(what, 'site', site))
+            now = self._clock()
+            cur.execute(
+                'INSERT INTO checkpoints (id, created, updated, mission_id, robot, stamp, points, '
+                'point_index, picking_point, targets_done, target_id, target_x, target_y, '
+                'target_z, phase, holding, finished, outcome) '
+                'VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) '
+                'ON CONFLICT(mission_id) DO UPDATE SET updated = excluded.updated, '
+                'robot = excluded.robot, stamp = excluded.stamp, points = excluded.points, '
+                'point_index = excluded.point_index, picking_point = excluded.picking_point, '
+                'targets_done = excluded.targets_done, target_id = excluded.target_id, '
+                'target_x = excluded.target_x, target_y = excluded.target_y, '
+                'target_z = excluded.target_z, phase = excluded.phase, '
+                'holding = excluded.holding, finished = excluded.finished, '
+                'outcome = excluded.outcome WHERE checkpoints.finished = 0',
+                (self._new_id(), now, now, mission_id) + row)
+            return cur.rowcount > 0
+
     # ------------------------------------------------------------ reads
 
     @staticmethod
@@ -545,10 +632,32 @@ class Store(object):
             return None, [], []
         return mission_id, self.pick_records(mission_id), self.events(mission_id)
 
-    def row_counts(self):
+    def checkpoint(self, mission_id):
+        """The checkpoint of a mission (a dict, see put_checkpoint), or None."""
+        rows = self._select('checkpoints', 'mission_id = ?', (mission_id,), 'rowid')
+        return self._checkpoint_dict(rows[0]) if rows else None
+
+    def latest_unfinished_checkpoint(self, robot=''):
+        """The unfinished checkpoint of ``robot`` written last, or None."""
+        rows = self._select('checkpoints', 'finished = 0 AND robot = ?', (robot,),
+                            'updated DESC, rowid DESC LIMIT 1')
+        return self._checkpoint_dict(rows[0]) if rows else None
+
+    @staticmethod
+    def _checkpoint_dict(row):
+        row['points'] = json.loads(row['points'])
+        row['targets_done'] = [(d[0], tuple(d[1])) for d in json.loads(row['targets_done'])]
+        xyz = (row.pop('target_x'), row.pop('target_y'), row.pop('target_z'))
+        row['target_position'] = None if xyz[0] is None else xyz
+        row['holding'] = bool(row['holding'])
+        row['finished'] = bool(row['finished'])
+        return row
+
+    def row_counts(self, tables=TABLES):
+        """Rows per table (the outbox's TABLES unless given, e.g. TABLES + LOCAL_TABLES)."""
         with self._lock:
             return dict((t, self._conn.execute('SELECT COUNT(*) FROM %s' % t).fetchone()[0])
-                        for t in TABLES)
+                        for t in tables)
 
     def file_size(self):
         """Bytes on disk: the database file plus its WAL (0 for ':memory:')."""

@@ -11,19 +11,33 @@ Params:
   ~timeout (float, ROS-time seconds, 600)
   ~expect_overlaps (bool, false): the task planner ran schedule pipelined and overlapped at
       least one step (its summary's `overlaps`)
+  ~kill_executive_in (str, ''): SIGKILL the task planner as soon as this state of the right arm
+      (PICK_TARGET/RIGHT_ARM, e.g. DO_MOVE_ROBOT_PULL: a fruit on the suction cup, still on its
+      peduncle) is active; it must respawn and continue the mission (one `restart` event, no
+      fruit recorded twice in the database)
 """
 import json
+import math
+import os
+import signal
 import threading
 import unittest
 
+import rosgraph
 import rospy
 import rostest
+from harvest_msgs.msg import PickRecord
+from harvest_msgs.srv import GetMissionRecords
 from harvest_sim.msg import SimFruit, SimFruitArray
 from harvest_sim.srv import GetSimSummary
 from sensor_msgs.msg import JointState
 from smach_msgs.msg import SmachContainerStatus
 from std_msgs.msg import Bool, String
 from std_srvs.srv import Trigger
+try:
+    from xmlrpc.client import ServerProxy
+except ImportError:  # Python 2
+    from xmlrpclib import ServerProxy
 
 CUT_STATES = (SimFruit.HARVESTED, SimFruit.COLLECTED, SimFruit.DROPPED, SimFruit.DAMAGED)
 RIGHT_ARM = '/SM_ROOT/RUN/MISSION/PICK_TARGET/RIGHT_ARM'
@@ -83,6 +97,9 @@ class MissionTest(unittest.TestCase):
         timeout = float(rospy.get_param('~timeout', 600.0))
         if rospy.get_param('~estop_during_right_move', False):
             self.estop_and_resume(w)
+        kill_in = rospy.get_param('~kill_executive_in', '')
+        if kill_in:
+            self.kill_executive(w, kill_in)
         self.assertTrue(w.wait(lambda: w.summary is not None, timeout), 'no mission summary')
         s = w.summary
         self.assertEqual(s['outcome'], rospy.get_param('~expect_outcome', 'succeeded'), s)
@@ -106,6 +123,36 @@ class MissionTest(unittest.TestCase):
             missed = [f.id for f in fruits if f.ripe and f.reachable and f.state != SimFruit.COLLECTED]
             self.assertEqual(missed, [], 'ripe reachable fruit not harvested: %s' % missed)
             self.assertEqual(s['picked'], truth.collected, 'executive record and ground truth disagree')
+        if kill_in:
+            self.check_records_after_restart(s, truth)
+
+    def kill_executive(self, w, label):
+        self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == [label], 300.0),
+                        '%s never became active: %s' % (label, w.active))
+        uri = rosgraph.Master('/mission_test').lookupNode('/task_planner')
+        self.assertTrue(uri, 'task_planner not registered')
+        code, _msg, pid = ServerProxy(uri).getPid('/mission_test')
+        self.assertEqual(code, 1)
+        rospy.logwarn('mission_test: SIGKILL of task_planner (pid %d) in %s', pid, label)
+        os.kill(pid, signal.SIGKILL)
+
+    def check_records_after_restart(self, s, truth):
+        """The store has one `restart` event of the mission, its pick records agree with the
+        world, and no fruit has two records (the same place, ids of two scans may repeat)."""
+        rospy.wait_for_service('/get_mission_records', timeout=30.0)
+        resp = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)(mission_id=s['mission_id'])
+        self.assertTrue(resp.success, resp.message)
+        restarts = [e for e in resp.events if e.kind == 'restart']
+        self.assertEqual(len(restarts), 1, [(e.kind, e.detail) for e in resp.events])
+        self.assertIn(s['mission_id'], restarts[0].detail)
+        picked = [r for r in resp.records if r.outcome == PickRecord.OUTCOME_PICKED]
+        self.assertEqual(len(picked), truth.collected, [(r.target_id, r.reason) for r in resp.records])
+        where = [(r.picking_point, r.pick_point.point) for r in resp.records]
+        for i, (pa, a) in enumerate(where):
+            for pb, b in where[i + 1:]:
+                gap = math.sqrt((a.x - b.x) ** 2 + (a.y - b.y) ** 2 + (a.z - b.z) ** 2)
+                self.assertFalse(pa == pb and gap < 0.03, 'a fruit recorded twice: %s' %
+                                 [(r.picking_point, r.target_id, r.outcome) for r in resp.records])
 
     def estop_and_resume(self, w):
         self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == ['DO_MOVE_ROBOT'], 300.0),
