@@ -4,7 +4,9 @@ A poll thread (``~poll_rate``, ROS time) reads the controller, publishes ``joint
 advances the goal monitors, keeps ``motion_status`` and the diagnostics up to date and
 reconnects with back-off after a lost connection. Action goals are handled in goal callbacks
 (commands are written at once; the poll thread finishes the goal), so a goal costs no
-actionlib polling latency.
+actionlib polling latency. ``move_robot`` is a plain ActionServer that runs one goal per arm at
+the same time (a waist goal belongs to both arms; ``motion_goals.ArmGoals``); ``move_base`` and
+``end_effector`` run one goal at a time (SimpleActionServer).
 
 Publications:  joint_states (sensor_msgs/JointState), motion_status (diagnostic_msgs/
                DiagnosticStatus, latched, on change), /diagnostics (diagnostic_updater)
@@ -23,6 +25,7 @@ import actionlib
 import diagnostic_updater
 import rospkg
 import rospy
+from actionlib_msgs.msg import GoalStatus
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from harvest_msgs.msg import (EndEffectorAction, EndEffectorFeedback, EndEffectorGoal,
                               EndEffectorResult, MoveBaseAction, MoveBaseFeedback,
@@ -99,9 +102,11 @@ class MotionServer(object):
         self.shear_timeout = float(rospy.get_param('~shear_timeout', 2.0))
         self.points_param = rospy.get_param('~picking_points_param', '/track/picking_points')
 
-        self._lock = threading.Lock()          # guards _active, _state, _poll_index
+        self._lock = threading.Lock()          # guards _active, _arm_goals, _state, _poll_index
         self._poll_lock = threading.Lock()     # one poll at a time (poll thread, goal callbacks)
-        self._active = {}
+        self._active = {}                      # move_base, end_effector: server name -> _Active
+        self._arm_goals = mg.ArmGoals()        # move_robot: a running goal per arm
+        self._deferred = []                    # (server, call) left to the poll thread
         self._state = None
         self._poll_index = 0
         self._last_good = None
@@ -117,7 +122,10 @@ class MotionServer(object):
         self._publish_status()
         rospy.Service('halt_all', Trigger, self._on_halt_all)
         rospy.Service('enable_all', Trigger, self._on_enable_all)
-        self.move_robot = self._action('move_robot', MoveRobotAction, self._goal_move_robot)
+        self.move_robot = actionlib.ActionServer('move_robot', MoveRobotAction,
+                                                 self._goal_move_robot, self._cancel_move_robot,
+                                                 auto_start=False)
+        self.move_robot.start()
         self.move_base = self._action('move_base', MoveBaseAction, self._goal_move_base)
         self.end_effector = self._action('end_effector', EndEffectorAction,
                                          self._goal_end_effector)
@@ -166,12 +174,20 @@ class MotionServer(object):
             except rospy.ROSTimeMovedBackwardsException:
                 rate = rospy.Rate(self.poll_rate)
 
-    def _poll_once(self):
+    def _poll_once(self, own=None):
         """One poll. Goal handles are only touched after the poll lock is released: a goal
-        callback holds actionlib's lock while it waits for the poll lock."""
+        callback holds actionlib's lock while it waits for the poll lock. `own`: the server
+        whose goal callback polls (it holds that server's lock): only that server's goals are
+        fed and finished here, the others' by the poll thread (`motion_goals.split_actions`)."""
         with self._poll_lock:
             actions = self._poll_locked()
-        for action in actions:
+        now, later = mg.split_actions(actions, own)
+        with self._lock:
+            if own is None:
+                now, self._deferred = [call for _, call in self._deferred] + now, []
+            else:
+                self._deferred.extend(later)
+        for action in now:
             action()
         self._publish_status()
 
@@ -209,7 +225,7 @@ class MotionServer(object):
             self._poll_index += 1
             index = self._poll_index
             self._state = state
-            active = list(self._active.values())
+            active = list(self._active.values()) + self._arm_goals.goals()
         msg = JointState(name=self.regmap.joint_names, position=state.positions,
                          velocity=state.velocities)
         msg.header.stamp = rospy.Time.from_sec(now)
@@ -219,10 +235,11 @@ class MotionServer(object):
             outcome = entry.monitor.update(index, state, now)
             if outcome is None:
                 if entry.feedback is not None:
-                    actions.append(functools.partial(entry.feedback, entry.handle,
-                                                     entry.monitor, state))
+                    actions.append((entry.key, functools.partial(
+                        entry.feedback, entry.handle, entry.monitor, state)))
             elif self._release(entry):
-                actions.append(functools.partial(entry.finish, entry.handle, outcome, state))
+                actions.append((entry.key, functools.partial(entry.finish, entry.handle,
+                                                             outcome, state)))
         return actions
 
     def _on_connected(self):
@@ -240,11 +257,13 @@ class MotionServer(object):
         """Make the goal active and poll at once: quick goals end without waiting a period."""
         with self._lock:
             self._active[entry.key] = entry
-        self._poll_once()
+        self._poll_once(own=entry.key)
 
     def _release(self, entry):
-        """Remove the entry if it is still the active one; True when removed."""
+        """Remove the entry if it is still an active one; True when removed."""
         with self._lock:
+            if entry.key == 'move_robot':
+                return self._arm_goals.remove(entry)
             if self._active.get(entry.key) is entry:
                 del self._active[entry.key]
                 return True
@@ -255,13 +274,16 @@ class MotionServer(object):
             return self._active.pop(key, None)
 
     def _abort_actions(self, code, text, keys=None):
-        """Deactivate goals (all, or those of the given servers); returns their abort calls."""
+        """Deactivate goals (all, or those of the given servers); returns their abort calls
+        as (server name, call) pairs."""
         with self._lock:
-            keys = list(self._active) if keys is None else keys
+            keys = list(self._active) + ['move_robot'] if keys is None else keys
             entries = [self._active.pop(k) for k in keys if k in self._active]
+            if 'move_robot' in keys:
+                entries.extend(self._arm_goals.clear())      # every arm's goal
             state = self._state
-        return [functools.partial(e.finish, e.handle, mg.Outcome(False, code, text), state)
-                for e in entries]
+        return [(e.key, functools.partial(e.finish, e.handle, mg.Outcome(False, code, text),
+                                          state)) for e in entries]
 
     def _snapshot(self):
         with self._lock:
@@ -274,7 +296,7 @@ class MotionServer(object):
         if entry is None:
             return
         text = 'preempted'
-        if key in ('move_robot', 'move_base'):
+        if key == 'move_base':
             try:
                 self.driver.halt(entry.monitor.indices)
                 text = 'preempted: axes %s halted' % ', '.join(entry.monitor.names)
@@ -283,34 +305,103 @@ class MotionServer(object):
         entry.finish(entry.handle, mg.Outcome(False, mg.HALTED, text), self._state,
                      preempted=True)
 
-    # --- move_robot ----------------------------------------------------------------------
-    def _goal_move_robot(self):
-        server = self.move_robot
-        goal = server.accept_new_goal()
-        handle = server.current_goal
-        previous = self._take('move_robot')
+    # --- move_robot ---------------------------------------------------------------------
+    def _goal_move_robot(self, handle):
+        """A goal per arm (ActionServer callback, under its lock: goals and cancels of
+        move_robot come one at a time). An invalid goal is refused before it touches the
+        running goals; a valid one takes over the running goals of its arms (both for a waist
+        goal): they end preempted, their axes it moves are retargeted by its writes (no halt,
+        the controller re-plans from position and speed), their other axes are halted."""
+        handle.set_accepted()
+        goal = handle.get_goal()
+        if handle.get_goal_status().status == GoalStatus.PREEMPTING:    # cancelled before it came
+            self._finish_move_robot(handle, mg.Outcome(False, mg.HALTED, 'cancelled before it '
+                                                       'started'), None, preempted=True)
+            return
+        displaced, halted = [], {}
         try:
             names, targets, speeds = mg.validate_arm_goal(
                 goal.target_joint.positions, goal.target_joint.velocities, goal.arm, self.limits,
                 goal.waist if goal.move_waist else None)
-            entry = self._start_axes_move('move_robot', handle, names, targets, speeds,
-                                          self._finish_move_robot, self._feedback_move_robot)
+            arms, names, targets, speeds = mg.goal_scope(goal.arm, names, targets, speeds,
+                                                         goal.move_waist and
+                                                         self._waist_settled(goal.waist))
+            plan = self._plan_axes_move(names, targets, speeds)
+            with self._lock:
+                displaced = self._arm_goals.take_over(arms, names)
+            halted = self._halt_displaced(displaced)
+            entry = self._write_axes_move('move_robot', handle, plan, self._finish_move_robot,
+                                          self._feedback_move_robot)
         except mg.GoalError as exc:
+            self._end_displaced(displaced, halted)
             self._finish_move_robot(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)), None)
             return
         except DriverError as exc:
+            self._end_displaced(displaced, halted)
             code = mg.CONNECTION_LOST if isinstance(exc, ConnectionLost) else mg.REFUSED
             self._finish_move_robot(handle, mg.Outcome(False, code, str(exc)), None)
             return
         except Exception as exc:  # noqa: BLE001 - a goal is always answered
+            self._end_displaced(displaced, halted)
             self._finish_move_robot(handle, _internal_error('move_robot', exc), None)
             return
-        if previous is not None:
-            rospy.logdebug('move_robot goal replaced a running one')
-        self._register(entry)
+        self._end_displaced(displaced, halted)
+        with self._lock:
+            others = self._arm_goals.add(entry, arms, names)     # none: taken over above
+        self._end_displaced(others, {})
+        self._poll_once(own='move_robot')
+
+    def _waist_settled(self, target):
+        """The waist rests at `target` (within ~tolerance_angular) and no goal moves it."""
+        with self._lock:
+            state, held = self._state, self._arm_goals.axis_held('waist')
+        if state is None or 'waist' not in self.regmap.axis_names:
+            return False
+        axis = state.axes[self.regmap.axis('waist').index]
+        return mg.waist_settled(target, axis.position, axis.moving, self.tol_angular, held)
+
+    def _halt_displaced(self, displaced):
+        """Halt the axes of replaced goals that the new goal does not move; {id: text}."""
+        texts = {}
+        for d in displaced:
+            if not d.halt:
+                texts[id(d.goal)] = 'preempted by a new goal for the same arm'
+                continue
+            try:
+                self.driver.halt([self.regmap.axis(n).index for n in d.halt])
+                texts[id(d.goal)] = 'preempted by a new goal: axes %s halted' % ', '.join(d.halt)
+            except DriverError as exc:
+                texts[id(d.goal)] = 'preempted by a new goal, but halting failed: %s' % exc
+        return texts
+
+    def _end_displaced(self, displaced, texts):
+        state = self._state
+        for d in displaced:
+            text = texts.get(id(d.goal), 'preempted by a new goal')
+            d.goal.finish(d.goal.handle, mg.Outcome(False, mg.HALTED, text), state,
+                          preempted=True)
+
+    def _cancel_move_robot(self, handle):
+        """Cancel of one goal: halts that goal's axes only (the other arm's goal runs on)."""
+        with self._lock:
+            entry = next((e for e in self._arm_goals.goals() if e.handle == handle), None)
+            if entry is None or not self._arm_goals.remove(entry):
+                return                  # already ended (its result is on its way)
+        try:
+            self.driver.halt(entry.monitor.indices)
+            text = 'preempted: axes %s halted' % ', '.join(entry.monitor.names)
+        except DriverError as exc:
+            text = 'preempted, but halting failed: %s' % exc
+        entry.finish(entry.handle, mg.Outcome(False, mg.HALTED, text), self._state,
+                     preempted=True)
 
     def _start_axes_move(self, key, handle, names, targets, speeds, finish, feedback):
-        index, state = self._snapshot()
+        return self._write_axes_move(key, handle, self._plan_axes_move(names, targets, speeds),
+                                     finish, feedback)
+
+    def _plan_axes_move(self, names, targets, speeds):
+        """Check a move against the connection and the last poll; nothing is written."""
+        _, state = self._snapshot()
         if state is None or not self.driver.connected:
             raise ConnectionLost('no connection to the motion controller at %s: %s'
                                  % (self.endpoint, self.driver.last_error or 'not connected'))
@@ -320,6 +411,10 @@ class MotionServer(object):
             names, targets, speeds, [state.axes[i].position for i in indices], self.limits,
             self.timeout_factor, self.timeout_margin,
             lambda n, *command: self.regmap.encode_move(self.regmap.axis(n).index, *command))
+        return names, targets, speeds, indices, state, budget
+
+    def _write_axes_move(self, key, handle, plan, finish, feedback):
+        names, targets, speeds, indices, state, budget = plan
         tolerances = [self.tol_linear if self.limits[n].linear else self.tol_angular
                       for n in names]
         units = [self.limits[n].unit for n in names]
@@ -474,8 +569,8 @@ class MotionServer(object):
         except DriverError as exc:
             rospy.logerr('halt_all failed: %s', exc)
             return TriggerResponse(success=False, message='halt_all failed: %s' % exc)
-        for action in self._abort_actions(mg.HALTED, 'halted by halt_all',
-                                          ['move_robot', 'move_base']):
+        for _, action in self._abort_actions(mg.HALTED, 'halted by halt_all',
+                                             ['move_robot', 'move_base']):
             action()
         rospy.logwarn('halt_all: every axis halted')
         return TriggerResponse(success=True, message='every axis halted')
