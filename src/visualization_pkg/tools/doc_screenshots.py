@@ -90,13 +90,18 @@ def main():
     parser.add_argument('--time-scale', type=float, default=2.0)
     parser.add_argument('--fruit', type=int, default=2, help='finished fruit before the screenshots')
     parser.add_argument('--timeout', type=float, default=900.0, help='wall seconds')
+    parser.add_argument('--schedule', default='', help="the task planner's schedule (paper, "
+                        "pipelined; '' = executive.yaml's)")
+    parser.add_argument('--prefix', default='', help='file name prefix, e.g. pipelined_ -> '
+                        'pipelined_rviz.png, pipelined_dashboard.png')
     args = parser.parse_args()
     h = Harness(args)
     print('[screenshots] logs in %s' % h.logdir)
     try:
         h.start('sim', ['roslaunch', '-p', str(h.port), 'harvest_bringup', 'sim.launch', 'scenario:=' + args.scenario,
                         'time_scale:=%g' % args.time_scale, 'db_path:=' + os.path.join(h.logdir, 'sim.db'),
-                        'mission_id:=screenshot-demo'] + sim_launch_args())
+                        'mission_id:=screenshot-demo'] + sim_launch_args() +
+                (['schedule:=' + args.schedule] if args.schedule else []))
         import rosgraph
         deadline = time.time() + 90
         while not rosgraph.is_master_online(h.master):
@@ -129,8 +134,9 @@ def main():
         moving.wait(120)
         wallsleep(1.5)         # let both windows draw the new goal
         os.makedirs(args.out, exist_ok=True)
-        h.grab(rviz_display, 'harvest.rviz', os.path.join(args.out, 'rviz.png'))
-        h.grab(dash_display, 'Harvest robot dashboard', os.path.join(args.out, 'dashboard.png'))
+        h.grab(rviz_display, 'harvest.rviz', os.path.join(args.out, args.prefix + 'rviz.png'))
+        h.grab(dash_display, 'Harvest robot dashboard',
+               os.path.join(args.out, args.prefix + 'dashboard.png'))
         return 0
     except RuntimeError as exc:
         print('[screenshots] %s (logs in %s)' % (exc, h.logdir))
