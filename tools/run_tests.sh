@@ -36,7 +36,7 @@ fi
 # (harvest_add_pytests of harvest_test_utils: run_tests_<package>_pytest), so `catkin_make
 # run_tests` alone runs them all and every result lands in one tree, build/test_results/<package>/
 # (JUnit XML), which the summary reads. Here the same targets run in two steps to save wall time:
-# every rostest and check of the other packages first, alone; then the whole-mission rostests of
+# every rostest and check of the other packages first, two packages at a time; then the whole-mission rostests of
 # harvest_bringup (made to be as correct on a busy machine as on a quiet one) beside every
 # package's pytest target (pure logic, no master, no fixed ports), a second make process.
 # A test skipped for something tools/setup.sh installs fails here (harvest_test_utils.strict_deps).
@@ -56,7 +56,10 @@ for xml in src/*/package.xml; do
 done
 
 echo "=== rostest (nodes talking to each other): ${ROSTEST_TARGETS[*]#run_tests_}"
-if ! catkin_make -C "$ROOT" "${ROSTEST_TARGETS[@]}" -j1 > "$RESULTS/rostest.log" 2>&1; then
+# two packages' targets at a time: every rostest has its own master on a free port, each test
+# file that runs a simulated controller its own Modbus port, the Xvfb tests a free display;
+# most of these tests wait on mock servers and timers, not on the CPU
+if ! catkin_make -C "$ROOT" "${ROSTEST_TARGETS[@]}" -j2 > "$RESULTS/rostest.log" 2>&1; then
   tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
 fi
 
