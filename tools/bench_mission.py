@@ -85,13 +85,9 @@ def state_means(runs):
 
 
 def move_duration(distance, speed, acceleration):
-    """Rest-to-rest trapezoid (or triangle) time over |distance| (motion_pkg's profile)."""
-    d = abs(distance)
-    if d == 0.0:
-        return 0.0
-    if d >= speed * speed / acceleration:
-        return d / speed + speed / acceleration
-    return 2.0 * (d / acceleration) ** 0.5
+    """Rest-to-rest trapezoid (or triangle) time over |distance|: motion_pkg's own profile."""
+    from motion_pkg.motion_goals import move_duration as profile_duration
+    return profile_duration(distance, speed, acceleration)
 
 
 def motion_bound(run, limits, home):

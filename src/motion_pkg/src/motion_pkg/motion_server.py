@@ -295,13 +295,7 @@ class MotionServer(object):
         entry = self._take(key)
         if entry is None:
             return
-        text = 'preempted'
-        if key == 'move_base':
-            try:
-                self.driver.halt(entry.monitor.indices)
-                text = 'preempted: axes %s halted' % ', '.join(entry.monitor.names)
-            except DriverError as exc:
-                text = 'preempted, but halting failed: %s' % exc
+        text = self._halt_entry(entry) if key == 'move_base' else 'preempted'
         entry.finish(entry.handle, mg.Outcome(False, mg.HALTED, text), self._state,
                      preempted=True)
 
@@ -387,13 +381,16 @@ class MotionServer(object):
             entry = next((e for e in self._arm_goals.goals() if e.handle == handle), None)
             if entry is None or not self._arm_goals.remove(entry):
                 return                  # already ended (its result is on its way)
+        entry.finish(entry.handle, mg.Outcome(False, mg.HALTED, self._halt_entry(entry)),
+                     self._state, preempted=True)
+
+    def _halt_entry(self, entry):
+        """Halt a preempted goal's axes; the text of its result."""
         try:
             self.driver.halt(entry.monitor.indices)
-            text = 'preempted: axes %s halted' % ', '.join(entry.monitor.names)
+            return 'preempted: axes %s halted' % ', '.join(entry.monitor.names)
         except DriverError as exc:
-            text = 'preempted, but halting failed: %s' % exc
-        entry.finish(entry.handle, mg.Outcome(False, mg.HALTED, text), self._state,
-                     preempted=True)
+            return 'preempted, but halting failed: %s' % exc
 
     def _start_axes_move(self, key, handle, names, targets, speeds, finish, feedback):
         return self._write_axes_move(key, handle, self._plan_axes_move(names, targets, speeds),
