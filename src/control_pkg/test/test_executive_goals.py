@@ -4,25 +4,11 @@ import math
 import pytest
 from actionlib_msgs.msg import GoalStatus
 
-from harvest_msgs.msg import (KinematicsResult, MoveRobotResult, EndEffectorResult, StartResult,
-                              Tomato)
+from harvest_msgs.msg import KinematicsResult, MoveRobotResult, EndEffectorResult, StartResult
 from control_pkg import executive_goals as goals
+from tomatoes import tomato, xyz
 
 
-def tomato(tid, xyz, radius, frame='base_link', pickable=True, order=0):
-    t = Tomato()
-    t.id = tid
-    t.pick_point.header.frame_id = frame
-    t.pick_point.point.x, t.pick_point.point.y, t.pick_point.point.z = xyz
-    t.radius = radius
-    t.pickable = pickable
-    t.pick_order = order
-    return t
-
-
-def xyz(point_stamped):
-    p = point_stamped.point
-    return (p.x, p.y, p.z)
 
 
 def test_located_needs_the_frame_a_radius_and_a_finite_point():

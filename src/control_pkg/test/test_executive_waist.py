@@ -3,41 +3,31 @@ import math
 
 import pytest
 
-from harvest_msgs.msg import KinematicsResult, Tomato
+from harvest_msgs.msg import KinematicsResult
 from control_pkg import executive_goals as goals
+from tomatoes import tomato, xyz
 
 
-def tomato(xyz, radius, frame='base_link'):
-    t = Tomato()
-    t.pick_point.header.frame_id = frame
-    t.pick_point.point.x, t.pick_point.point.y, t.pick_point.point.z = xyz
-    t.radius = radius
-    return t
-
-
-def xyz(point_stamped):
-    p = point_stamped.point
-    return (p.x, p.y, p.z)
 
 
 def test_suction_goal_lets_the_waist_turn_for_both_hands():
-    goal = goals.suction_kinematics_goal(tomato((0.66, 0.34, 0.83), 0.035))
+    goal = goals.suction_kinematics_goal(tomato(0, (0.66, 0.34, 0.83), 0.035))
     assert goal.solve_waist and goal.check_other
     assert goal.other_target.header.frame_id == 'base_link'
     assert xyz(goal.other_target) == pytest.approx((0.66, 0.34, 0.83 + 0.035 + goals.PEDUNCLE_GAP))
     assert goal.other_standoff == 0.0         # the cut point itself, where the servo ends
-    goal = goals.suction_kinematics_goal(tomato((0.66, 0.34, 0.83), 0.035), peduncle_gap=0.02)
+    goal = goals.suction_kinematics_goal(tomato(0, (0.66, 0.34, 0.83), 0.035), peduncle_gap=0.02)
     assert xyz(goal.other_target)[2] == pytest.approx(0.83 + 0.055)
 
 
 def test_suction_goal_without_the_waist():
-    goal = goals.suction_kinematics_goal(tomato((0.66, 0.34, 0.83), 0.035), waist=False)
+    goal = goals.suction_kinematics_goal(tomato(0, (0.66, 0.34, 0.83), 0.035), waist=False)
     assert not goal.solve_waist and not goal.check_other
     assert xyz(goal.target) == (0.66, 0.34, 0.83) and goal.standoff == pytest.approx(0.035)
 
 
 def test_cut_check_lets_the_waist_turn_for_both_hands():
-    t = tomato((0.66, 0.34, 0.83), 0.035)
+    t = tomato(0, (0.66, 0.34, 0.83), 0.035)
     goal = goals.cut_check_kinematics_goal(t, 0.01, 0.03)
     plain = goals.cutting_kinematics_goal(t, 0.01, 0.03)
     assert goal.arm == goals.ARM_LEFT and goal.standoff == plain.standoff
@@ -48,7 +38,7 @@ def test_cut_check_lets_the_waist_turn_for_both_hands():
 
 
 def test_goals_while_the_fruit_is_held_keep_the_waist():
-    t = tomato((0.5, 0.1, 1.0), 0.03)
+    t = tomato(0, (0.5, 0.1, 1.0), 0.03)
     for goal in (goals.cutting_kinematics_goal(t, 0.01, 0.03),
                  goals.pull_kinematics_goal(t, (-0.08, 0.0, 0.0))):
         assert not goal.solve_waist and not goal.check_other
