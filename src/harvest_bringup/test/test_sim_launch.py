@@ -57,3 +57,8 @@ def test_schedule_reaches_the_task_planner_and_its_default_is_executive_yamls():
     assert load('schedule:=pipelined').params['/task_planner/schedule'].value == 'pipelined'
     doc, default = get_args([SIM_LAUNCH])['schedule']
     assert doc and default == ''
+
+
+def test_servo_mode_reaches_the_visual_servo_and_its_default_is_the_papers_step():
+    assert load().params['/visual_servo/mode'].value == 'step'
+    assert load('servo_mode:=continuous').params['/visual_servo/mode'].value == 'continuous'
