@@ -82,6 +82,7 @@ class _Subscribed(rospy.SubscribeListener):
     def peer_subscribe(self, topic_name, topic_publish, peer_publish):
         self.event.set()
 
+
 def defaults_path():
     """config/executive.yaml of the control_pkg package: the executive's defaults live only there."""
     here = os.path.dirname(os.path.abspath(__file__))

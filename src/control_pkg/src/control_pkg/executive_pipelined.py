@@ -26,9 +26,9 @@ PICK_TARGET (StateMachine)
                        | not clear: DO_MOVE_ROBOT -> DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR
   RECOVER_*: as in the paper flow
 
-Arm moves take turns through the mission's MoveGate: motion_pkg's move_robot runs one goal at
-a time, so unless `concurrent_arm_moves` says the motion server runs one per arm, two arm moves
-of an overlap run one after the other and only the rest of the overlap (kinematics, the look
+Arm moves go through the mission's MoveGate: with `concurrent_arm_moves` (the default;
+motion_pkg's move_robot runs one goal per arm) the two arms' moves of an overlap run at once;
+without it they run one after the other and only the rest of the overlap (kinematics, the look
 at the held fruit, the suction valve) runs beside a move.
 """
 import rospy

@@ -92,10 +92,10 @@ def _status_text(state):
 
 
 class MoveGate(object):
-    """Arm moves that must take turns. motion_pkg's move_robot serves one goal at a time (a
-    second goal replaces the first), so with `per_arm` false every arm move, and the visual
-    servo that moves the left arm through it, waits until no other one runs; with `per_arm`
-    (a motion server that runs one goal per arm at once) an arm waits only for itself.
+    """Arm moves that must take turns. With `per_arm` (concurrent_arm_moves: motion_pkg's
+    move_robot runs one goal per arm at once) an arm's moves, and the visual servo's moves of
+    the left arm, wait only for that arm; without it (a one-goal motion server, where a second
+    goal replaces the first) every arm move waits until no other one runs.
     A waiting state is woken by its preemption (`wake`), never polled."""
 
     def __init__(self, per_arm=False):
