@@ -1,4 +1,6 @@
-"""Adds up the JUnit XML files of one `make test` run and prints one closing line.
+"""Adds up the JUnit XML files of one `make test` run and prints one closing line, after the
+name of every failed test and the first lines of why it failed (its JUnit message and text: a CI
+log then says what went wrong, not only where).
 
 Exit status 1 when any test failed or errored, or when no test ran at all.
 """
@@ -7,9 +9,24 @@ import os
 import sys
 import xml.etree.ElementTree as ET
 
+#: lines of a failure's message and text printed under its name
+WHY_LINES = 15
+
+
+def why(element, limit=WHY_LINES):
+    """The first `limit` non-empty lines of a <failure>/<error>: its message, then its text."""
+    lines = []
+    for text in (element.get('message') or '', element.text or ''):
+        lines += [line.rstrip() for line in text.splitlines() if line.strip()]
+    if lines and len(lines) > 1 and lines[0].strip() in lines[1]:
+        lines = lines[1:]       # the message repeated as the text's first line
+    more = len(lines) - limit
+    return lines[:limit] + (['... (%d more lines)' % more] if more > 0 else [])
+
 
 def count(path):
-    """Return (tests, failures, errors, skipped, failed_names) of one JUnit XML file."""
+    """Return (tests, failures, errors, skipped, failed) of one JUnit XML file; failed: a
+    (name, lines why) per failed or errored test case."""
     root = ET.parse(path).getroot()
     suites = [root] if root.tag == 'testsuite' else root.findall('testsuite')
     tests = failures = errors = skipped = 0
@@ -17,12 +34,14 @@ def count(path):
     for suite in suites:
         for case in suite.iter('testcase'):
             tests += 1
-            if case.find('failure') is not None:
+            bad = case.find('failure')
+            if bad is not None:
                 failures += 1
-                failed.append('%s.%s' % (case.get('classname'), case.get('name')))
-            elif case.find('error') is not None:
-                errors += 1
-                failed.append('%s.%s' % (case.get('classname'), case.get('name')))
+            else:
+                bad = case.find('error')
+                errors += bad is not None
+            if bad is not None:
+                failed.append(('%s.%s' % (case.get('classname'), case.get('name')), why(bad)))
             elif case.find('skipped') is not None:
                 skipped += 1
     return tests, failures, errors, skipped, failed
@@ -42,9 +61,12 @@ def main(results_dir):
         total += t
         failed_n += f + e
         skipped_n += s
-        failed_names += ['%s: %s' % (os.path.relpath(path, results_dir), n) for n in names]
-    for name in failed_names:
+        failed_names += [('%s: %s' % (os.path.relpath(path, results_dir), n), lines)
+                         for n, lines in names]
+    for name, lines in failed_names:
         print('FAILED', name)
+        for line in lines:
+            print('    ' + line)
     passed = total - failed_n - skipped_n
     print('%d passed, %d failed, %d skipped' % (passed, failed_n, skipped_n))
     return 1 if failed_n or total == 0 else 0

@@ -1,0 +1,56 @@
+"""tools/test_summary.py: the closing line of `make test`, and why each failed test failed."""
+
+import importlib.util
+import os
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+SUMMARY = os.path.join(HERE, '..', '..', '..', 'tools', 'test_summary.py')
+
+JUNIT = '''<?xml version="1.0" encoding="utf-8"?>
+<testsuite name="mission" tests="3" failures="1" errors="1">
+  <testcase classname="__main__.MissionTest" name="test_mission_executive_killed">
+    <failure message="AssertionError: 1 != 0 : [('restart', 'task_planner restarted')]">Traceback (most recent call last):
+  File "mission_test.py", line 150, in check_records_after_restart
+%s
+AssertionError: 1 != 0 : [('restart', 'task_planner restarted')]</failure>
+  </testcase>
+  <testcase classname="__main__.MissionTest" name="test_other">
+    <error message="no mission summary"></error>
+  </testcase>
+  <testcase classname="__main__.MissionTest" name="test_fine"/>
+</testsuite>
+'''
+
+
+@pytest.fixture(scope='module')
+def summary():
+    spec = importlib.util.spec_from_file_location('test_summary', SUMMARY)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_failed_tests_are_named_with_the_first_lines_of_why(summary, tmp_path, capsys):
+    filler = '\n'.join('    frame %d' % i for i in range(30))
+    (tmp_path / 'harvest_bringup').mkdir()
+    (tmp_path / 'harvest_bringup' / 'rosunit-mission.xml').write_text(JUNIT % filler)
+    assert summary.main(str(tmp_path)) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == ('FAILED harvest_bringup/rosunit-mission.xml: '
+                      '__main__.MissionTest.test_mission_executive_killed')
+    assert out[1] == "    AssertionError: 1 != 0 : [('restart', 'task_planner restarted')]"
+    assert out[2] == '    Traceback (most recent call last):'
+    cut = out.index('    ... (%d more lines)' % (34 - summary.WHY_LINES))
+    assert cut == 1 + summary.WHY_LINES
+    assert out[cut + 1] == 'FAILED harvest_bringup/rosunit-mission.xml: __main__.MissionTest.test_other'
+    assert out[cut + 2] == '    no mission summary'
+    assert out[-1] == '1 passed, 2 failed, 0 skipped'
+
+
+def test_all_passed_is_exit_status_0_and_no_result_at_all_is_1(summary, tmp_path, capsys):
+    (tmp_path / 'ok.xml').write_text('<testsuite><testcase classname="a" name="b"/></testsuite>')
+    assert summary.main(str(tmp_path)) == 0
+    assert capsys.readouterr().out.splitlines() == ['1 passed, 0 failed, 0 skipped']
+    assert summary.main(str(tmp_path / 'none')) == 1
