@@ -5,7 +5,9 @@ Node `task_planner`
     tomato_scan, spatial_temporal, kinematics, move_robot, end_effector, visual_servo
   Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: true = stop),
               plan/picking_points (std_msgs/Int32MultiArray, latched: the day's plan, visit order)
-  Services:   ~start, ~emergency_stop, ~resume (std_srvs/Trigger; ~start when ~autostart is false)
+  Services:   ~start, ~emergency_stop, ~resume (std_srvs/Trigger; ~start when ~autostart is false;
+              ~resume ends an emergency stop, or continues a mission that DO_ERROR ended once the
+              operator has cleared the fault: continue_after_fault)
   Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR;
               get_checkpoint, get_mission_records (database_pkg) once at start (~resume_unfinished)
   Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
@@ -36,7 +38,7 @@ from harvest_msgs.srv import GetCheckpoint, GetMissionRecords
 from control_pkg.smach_compat import IntrospectionServer
 from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import executive
-from control_pkg.executive_states import MissionContext
+from control_pkg.executive_states import MissionContext, clear_preempts
 from control_pkg import mission as mission_lib
 
 _OUTCOME_CODES = {
@@ -211,6 +213,8 @@ class TaskPlanner(object):
         rospy.Service('~start', Trigger, self._start_srv)
         self.outcome = None
         self._thread = None
+        self._run_lock = threading.Lock()     # ~start and ~resume after a fault
+        self._fault_snapshot = None           # the checkpoint DO_ERROR ended the mission at
         rospy.on_shutdown(self.on_shutdown)
         if self.starts > 1:
             self._event_listener.event.wait(float(self.config['checkpoint_wait']))
@@ -345,15 +349,59 @@ class TaskPlanner(object):
         return TriggerResponse(success=True, message='emergency stop requested')
 
     def _resume_srv(self, req):
-        if not self.estop.is_set():
-            return TriggerResponse(success=False, message='not stopped')
-        self.request_resume('resume service')
-        return TriggerResponse(success=True, message='resume requested')
+        if self.estop.is_set():
+            self.request_resume('resume service')
+            return TriggerResponse(success=True, message='resume requested')
+        if self.outcome == 'aborted' and self._fault_snapshot is not None:
+            ok, message = self.continue_after_fault()
+            return TriggerResponse(success=ok, message=message)
+        return TriggerResponse(success=False, message='not stopped')
+
+    def continue_after_fault(self):
+        """After DO_ERROR ended the mission (a drive fault, a component down) and the operator
+        cleared the cause (motion_pkg's enable_all, a restarted component): the same mission
+        goes on from its last checkpoint as after a restart of this node (RESUME: the robot's
+        real state made safe, then DO_START's self-test, which refuses a fault still there,
+        then the interrupted picking point scanned again). The fruit DO_ERROR recorded failed
+        is tried again: that record does not skip it."""
+        with self._run_lock:
+            if self._thread is not None:
+                self._thread.join(5.0)       # it ends right after the summary
+            snap = self._fault_snapshot
+            if snap is None or (self._thread is not None and self._thread.is_alive()):
+                return False, 'nothing to continue: the mission did not end in DO_ERROR'
+            recorded = [(f.picking_point, f.target_id, f.position) for f in self.recorder.fruits
+                        if f.outcome != mission_lib.OUTCOME_FAILED]
+            try:
+                plan = checkpoint_lib.resume_plan(snap, recorded,
+                                                  float(self.config['resume_skip_tolerance']))
+                if snap.points:
+                    self.progress.resume_at(snap.points, plan.point_index)
+            except ValueError as exc:
+                return False, 'cannot continue mission %s: %s' % (self.mission_id, exc)
+            fault = self.context.last_error
+            self._fault_snapshot = None
+            self.checkpoints.restore(snap)
+            self.context.skip[snap.picking_point] = plan.skip
+            self.context.resume = plan
+            self.context.resume_snapshot = snap
+            self.context.last_error = ''
+            self.outcome = None
+            self.resuming = True
+            clear_preempts(self.sm)
+            self.publish_event('resume', 'DO_ERROR', 'mission %s continued after the fault (%s): %s'
+                               % (self.mission_id, fault, plan.why))
+            rospy.logwarn('task_planner: continuing mission %s after the fault (%s): %s',
+                          self.mission_id, fault, plan.why)
+            self.start()
+        return True, 'mission %s continued: %s' % (self.mission_id, plan.why)
 
     def _start_srv(self, req):
-        if self._thread is not None:
-            return TriggerResponse(success=False, message='mission already started (outcome: %s)' % self.outcome)
-        self.start()
+        with self._run_lock:
+            if self._thread is not None:
+                return TriggerResponse(success=False, message='mission already started (outcome: %s)%s' % (
+                    self.outcome, '; after DO_ERROR, ~resume continues it' if self.outcome == 'aborted' else ''))
+            self.start()
         return TriggerResponse(success=True, message='mission %s started' % self.mission_id)
 
     def request_stop(self, source):
@@ -427,6 +475,8 @@ class TaskPlanner(object):
         # a mission cut short by the node's shutdown (SMACH may then end it 'aborted') goes on
         # at the next start: only a mission that really ended finishes its checkpoint
         if self.outcome in _FINISHED and not rospy.is_shutdown():
+            # after DO_ERROR the operator may clear the fault and resume (continue_after_fault)
+            self._fault_snapshot = self.checkpoints.current if self.outcome == 'aborted' else None
             self.checkpoints.finish(self.outcome)
         totals = self.recorder.totals()
         totals['outcome'] = self.outcome

@@ -15,6 +15,17 @@ Params:
       (PICK_TARGET/RIGHT_ARM, e.g. DO_MOVE_ROBOT_PULL: a fruit on the suction cup, still on its
       peduncle) is active; it must respawn and continue the mission (one `restart` event, no
       fruit recorded twice in the database)
+  ~axis_fault_in (str, ''), ~axis_fault (str, 'right_boom 3'): as soon as this state of the right
+      arm is active, the simulated controller faults that drive (axis, code): the mission must
+      end in DO_ERROR naming axis and code, every axis at rest; then the operator's reset
+      (motion_pkg's enable_all) and ~resume continue it to the end (one `fault` event, one
+      `resume` event of DO_ERROR, no fruit picked twice)
+  ~faults (list of str, []): faults the robot must ride through without anyone's help, each
+      'CONTAINER/STATE KIND ARGS' (CONTAINER of PICK_TARGET: RIGHT_ARM, LEFT_ARM, PLACE), one
+      after the other, each as soon as its state is active (the first time after the previous
+      fault): `link_drop SECONDS` (the simulated controller drops every Modbus connection and
+      refuses new ones for that long), `camera CAMERA SECONDS` (stereo, hand: publishes
+      nothing for that long); the mission must still end as ~expect_outcome with every check
 """
 import json
 import math
@@ -29,7 +40,7 @@ import rostest
 from harvest_msgs.msg import PickRecord
 from harvest_msgs.srv import GetMissionRecords
 from harvest_sim.msg import SimFruit, SimFruitArray
-from harvest_sim.srv import GetSimSummary
+from harvest_sim.srv import FaultWindow, GetSimSummary, SilenceCamera
 from sensor_msgs.msg import JointState
 from smach_msgs.msg import SmachContainerStatus
 from std_msgs.msg import Bool, String
@@ -40,7 +51,8 @@ except ImportError:  # Python 2
     from xmlrpclib import ServerProxy
 
 CUT_STATES = (SimFruit.HARVESTED, SimFruit.COLLECTED, SimFruit.DROPPED, SimFruit.DAMAGED)
-RIGHT_ARM = '/SM_ROOT/RUN/MISSION/PICK_TARGET/RIGHT_ARM'
+PICK_TARGET = '/SM_ROOT/RUN/MISSION/PICK_TARGET'
+RIGHT_ARM = PICK_TARGET + '/RIGHT_ARM'
 
 
 class Watch(object):
@@ -100,6 +112,11 @@ class MissionTest(unittest.TestCase):
         kill_in = rospy.get_param('~kill_executive_in', '')
         if kill_in:
             self.kill_executive(w, kill_in)
+        fault_in = rospy.get_param('~axis_fault_in', '')
+        if fault_in:
+            self.drive_fault_and_reset(w, fault_in, rospy.get_param('~axis_fault', 'right_boom 3'))
+        for fault in rospy.get_param('~faults', []):
+            self.ride_through(w, fault)
         self.assertTrue(w.wait(lambda: w.summary is not None, timeout), 'no mission summary')
         s = w.summary
         self.assertEqual(s['outcome'], rospy.get_param('~expect_outcome', 'succeeded'), s)
@@ -125,6 +142,8 @@ class MissionTest(unittest.TestCase):
             self.assertEqual(s['picked'], truth.collected, 'executive record and ground truth disagree')
         if kill_in:
             self.check_records_after_restart(s, truth)
+        if fault_in:
+            self.check_records_after_fault(s, truth)
 
     def kill_executive(self, w, label):
         self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == [label], 300.0),
@@ -135,6 +154,74 @@ class MissionTest(unittest.TestCase):
         self.assertEqual(code, 1)
         rospy.logwarn('mission_test: SIGKILL of task_planner (pid %d) in %s', pid, label)
         os.kill(pid, signal.SIGKILL)
+
+    def ride_through(self, w, spec):
+        """One fault of ~faults, injected once its state is active."""
+        where, kind = spec.split()[:2]
+        args = spec.split()[2:]
+        container, label = where.split('/')
+        path = PICK_TARGET + '/' + container
+        with w.cond:
+            w.active.pop(path, None)              # the first time after the previous fault
+        self.assertTrue(w.wait(lambda: w.active.get(path) == [label], 300.0),
+                        '%s never became active: %s' % (where, w.active))
+        if kind == 'link_drop':
+            resp = rospy.ServiceProxy('/sim/sim_controller/drop_connections', FaultWindow)(
+                duration=float(args[0]))
+        elif kind == 'camera':
+            resp = rospy.ServiceProxy('/sim/sim_world/camera_silence', SilenceCamera)(
+                camera=args[0], duration=float(args[1]))
+        else:
+            self.fail('unknown fault kind %r in %r' % (kind, spec))
+        self.assertTrue(resp.success, resp.message)
+        rospy.logwarn('mission_test: fault %r: %s', spec, resp.message)
+
+    def drive_fault_and_reset(self, w, label, fault):
+        """A drive fault mid-move: DO_ERROR names the axis and its code, every axis comes to
+        rest; the operator clears the fault (enable_all) and resumes (task_planner/resume)."""
+        axis, code = fault.split()
+        self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == [label], 300.0),
+                        '%s never became active: %s' % (label, w.active))
+        rospy.set_param('/sim/sim_controller/fault', 'axis_fault %s' % fault)
+        resp = rospy.ServiceProxy('/sim/sim_controller/inject_fault', Trigger)()
+        self.assertTrue(resp.success, resp.message)
+        rospy.logwarn('mission_test: drive fault %s in %s: %s', fault, label, resp.message)
+        self.assertTrue(w.wait(lambda: w.summary is not None, 120.0), 'no DO_ERROR: %s' % w.active)
+        with w.cond:
+            s, w.summary = w.summary, None          # the next summary is the continued mission's
+        self.assertEqual(s['outcome'], 'aborted', s)
+        self.assertIn(axis, s['last_error'])
+        self.assertIn(code, s['last_error'])
+        self.assertTrue(w.wait(lambda: bool(w.velocities) and all(abs(v) < 1e-6 for v in w.velocities),
+                               30.0), 'axes still moving after DO_ERROR: %s' % w.velocities)
+        rospy.wait_for_service('/enable_all', timeout=30.0)
+        resp = rospy.ServiceProxy('/enable_all', Trigger)()
+        self.assertTrue(resp.success, resp.message)
+        resp = rospy.ServiceProxy('/task_planner/resume', Trigger)()
+        self.assertTrue(resp.success, resp.message)
+        rospy.loginfo('mission_test: after the reset: %s', resp.message)
+
+    def check_records_after_fault(self, s, truth):
+        """One `fault` event and one `resume` of DO_ERROR; the picked records agree with the
+        world, and no fruit is picked twice (the fruit DO_ERROR interrupted has a failed record
+        and, tried again, a picked one)."""
+        rospy.wait_for_service('/get_mission_records', timeout=30.0)
+        resp = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)(mission_id=s['mission_id'])
+        self.assertTrue(resp.success, resp.message)
+        kinds = [(e.kind, e.state) for e in resp.events]
+        self.assertEqual(kinds.count(('fault', 'DO_ERROR')), 1, kinds)
+        self.assertEqual(kinds.count(('resume', 'DO_ERROR')), 1, kinds)
+        picked = [r for r in resp.records if r.outcome == PickRecord.OUTCOME_PICKED]
+        self.assertEqual(len(picked), truth.collected, [(r.target_id, r.outcome, r.reason) for r in resp.records])
+        self.assert_no_two_at_one_place(picked)
+
+    def assert_no_two_at_one_place(self, records):
+        where = [(r.picking_point, r.pick_point.point) for r in records]
+        for i, (pa, a) in enumerate(where):
+            for pb, b in where[i + 1:]:
+                gap = math.sqrt((a.x - b.x) ** 2 + (a.y - b.y) ** 2 + (a.z - b.z) ** 2)
+                self.assertFalse(pa == pb and gap < 0.03, 'a fruit recorded twice: %s' %
+                                 [(r.picking_point, r.target_id, r.outcome) for r in records])
 
     def check_records_after_restart(self, s, truth):
         """The store has one `restart` event of the mission, its pick records agree with the
@@ -147,12 +234,7 @@ class MissionTest(unittest.TestCase):
         self.assertIn(s['mission_id'], restarts[0].detail)
         picked = [r for r in resp.records if r.outcome == PickRecord.OUTCOME_PICKED]
         self.assertEqual(len(picked), truth.collected, [(r.target_id, r.reason) for r in resp.records])
-        where = [(r.picking_point, r.pick_point.point) for r in resp.records]
-        for i, (pa, a) in enumerate(where):
-            for pb, b in where[i + 1:]:
-                gap = math.sqrt((a.x - b.x) ** 2 + (a.y - b.y) ** 2 + (a.z - b.z) ** 2)
-                self.assertFalse(pa == pb and gap < 0.03, 'a fruit recorded twice: %s' %
-                                 [(r.picking_point, r.target_id, r.outcome) for r in resp.records])
+        self.assert_no_two_at_one_place(resp.records)
 
     def estop_and_resume(self, w):
         self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == ['DO_MOVE_ROBOT'], 300.0),

@@ -57,12 +57,14 @@ def _internal_error(action, exc):
 class _Active(object):
     """One running goal: its server, goal handle, monitor and how to finish it."""
 
-    def __init__(self, key, handle, monitor, finish, feedback):
+    def __init__(self, key, handle, monitor, finish, feedback, resend=None):
         self.key = key
         self.handle = handle
         self.monitor = monitor
         self.finish = finish        # callable(handle, outcome, state)
         self.feedback = feedback    # callable(handle, monitor, state) or None
+        self.resend = resend        # callable(): writes the goal's commands again after a link
+        #                             outage (absolute targets, a valve state); None: aborted then
 
 
 class MotionServer(object):
@@ -100,6 +102,13 @@ class MotionServer(object):
         self.timeout_margin = float(rospy.get_param('~move_timeout_margin', 2.0))
         self.suction_timeout = float(rospy.get_param('~suction_timeout', 2.0))
         self.shear_timeout = float(rospy.get_param('~shear_timeout', 2.0))
+        # a lost Modbus link: running goals wait this long (ROS time) for the driver to connect
+        # again, then their commands are written again and they go on (0: aborted at once)
+        self.link_grace = float(rospy.get_param('~link_grace', 5.0))
+        if not math.isfinite(self.link_grace) or self.link_grace < 0.0:
+            raise ValueError('~link_grace must be finite and >= 0, got %r' % self.link_grace)
+        self._link_lost_at = None             # ROS time the link was lost, until it is back
+        self._link_error = ''                 # why it was lost
         self.points_param = rospy.get_param('~picking_points_param', '/track/picking_points')
 
         self._lock = threading.Lock()          # guards _active, _arm_goals, _state, _poll_index
@@ -194,20 +203,24 @@ class MotionServer(object):
     def _poll_locked(self):
         """Poll the controller; returns the goal feedback / finish calls to make."""
         now = rospy.get_time()
+        resumed = []
         if not self.driver.connected:
             if not self.driver.ensure_connected(now):
                 if self.driver.refused and self.driver.refused != self._refusal_logged:
                     rospy.logerr('%s (~controller_serial %d); retrying with back-off',
                                  self.driver.refused, self.driver.serial_number)
                 self._refusal_logged = self.driver.refused
-                return []
+                return self._outage_expired(now)
             self._refusal_logged = ''
-            self._on_connected()
+            resumed = self._on_connected(now)
         try:
             state = self.driver.poll()
         except ConnectionLost as exc:
             rospy.logerr('%s', exc)
-            return self._abort_actions(mg.CONNECTION_LOST, str(exc))
+            if self.link_grace > 0.0:
+                self._note_link_lost(exc, now)
+                return resumed + self._outage_expired(now)
+            return resumed + self._abort_actions(mg.CONNECTION_LOST, str(exc))
         except ControllerRefused as exc:
             self._poll_error = str(exc)
             rospy.logwarn_throttle(2.0, '%s' % exc)
@@ -230,7 +243,7 @@ class MotionServer(object):
                          velocity=state.velocities)
         msg.header.stamp = rospy.Time.from_sec(now)
         self.joint_pub.publish(msg)
-        actions = []
+        actions = resumed
         for entry in active:
             outcome = entry.monitor.update(index, state, now)
             if outcome is None:
@@ -242,15 +255,107 @@ class MotionServer(object):
                                                              outcome, state)))
         return actions
 
-    def _on_connected(self):
+    def _on_connected(self, now):
+        """Connected (again): nothing may run that no goal watches. After a link outage the
+        goals that waited for it go on (`_resume_goals`); returns the finish calls to make."""
         rospy.loginfo('connected to the motion controller at %s (connection %d)',
                       self.endpoint, self.driver.connects)
+        if self._link_lost_at is not None:
+            lost_at, self._link_lost_at = self._link_lost_at, None
+            return self._resume_goals(now - lost_at)
         try:
-            self.driver.halt_all()            # nothing runs that no goal watches
+            self.driver.halt_all()
             if self.auto_enable:
                 self.driver.system('enable_all')
         except DriverError as exc:
             rospy.logwarn('start-up commands failed: %s', exc)
+        return []
+
+    def _resume_goals(self, outage):
+        """The link is back after `outage` s: every axis no goal holds is halted, each waiting
+        goal's commands are written again (absolute targets: where the axes have got to in the
+        meantime does not matter) and its deadline moved on by the outage; a goal that cannot be
+        written again (a shear stroke) is aborted. Faults are not cleared: a drive that
+        faulted meanwhile fails its goal at the next poll."""
+        with self._lock:
+            entries = list(self._active.values()) + self._arm_goals.goals()
+            next_poll = self._poll_index + 1
+        held = set(i for e in entries if e.resend is not None
+                   for i in getattr(e.monitor, 'indices', ()))
+        aborted = [e for e in entries if e.resend is None]
+        try:
+            idle = [i for i in range(len(self.regmap.axis_names)) if i not in held]
+            if idle:
+                self.driver.halt(idle)
+            for entry in entries:
+                if entry.resend is not None:
+                    entry.resend()
+                    entry.monitor.first_poll = next_poll
+                    entry.monitor.deadline += outage
+        except DriverError as exc:
+            rospy.logerr('link back after %.1f s, but the goals cannot be written again: %s',
+                         outage, exc)
+            return self._abort_actions(mg.CONNECTION_LOST, 'the link to the motion controller '
+                                       'came back, but writing failed: %s' % exc)
+        rospy.logwarn('link to the motion controller back after %.1f s: %d goal(s) go on%s',
+                      outage, len(entries) - len(aborted),
+                      ', %d aborted' % len(aborted) if aborted else '')
+        text = 'the link to the motion controller was down for %.1f s (%s)' % (
+            outage, self._link_error)
+        return [(e.key, functools.partial(e.finish, e.handle,
+                                          mg.Outcome(False, mg.CONNECTION_LOST, text), None))
+                for e in aborted if self._release(e)]
+
+    def _outage_expired(self, now):
+        """While the link is down: the waiting goals are aborted once `link_grace` is over."""
+        if self._link_lost_at is None or now - self._link_lost_at <= self.link_grace:
+            return []
+        with self._lock:
+            waiting = bool(self._active) or bool(self._arm_goals.goals())
+        if not waiting:
+            return []
+        return self._abort_actions(mg.CONNECTION_LOST, 'no link to the motion controller at %s '
+                                   'for %.1f s (~link_grace): %s' % (
+                                       self.endpoint, now - self._link_lost_at,
+                                       self.driver.last_error or self._link_error))
+
+    def _note_link_lost(self, exc, now=None):
+        """The link broke (a poll or a goal's write found it): goals wait `link_grace`."""
+        if self.link_grace > 0.0 and self._link_lost_at is None:
+            self._link_lost_at = rospy.get_time() if now is None else now
+            self._link_error = str(exc)
+            rospy.logwarn('goals wait up to %.1f s for the link to the motion controller',
+                          self.link_grace)
+
+    def _write_through_outage(self, write):
+        """A goal's write(); when the link breaks during it, the goal waits for the link
+        (`_await_link`) and writes everything again (absolute targets, a valve state)."""
+        try:
+            write()
+        except ConnectionLost as exc:
+            self._note_link_lost(exc)
+            if not self._await_link():
+                raise
+            with self._poll_lock:
+                write()
+
+    def _await_link(self):
+        """A goal that comes while the link is down (lost less than `link_grace` ago) waits for
+        it (ROS time) before it is checked: the outage a running goal rides through does not
+        fail the next goal either. True when connected."""
+        while not self.driver.connected and not rospy.is_shutdown():
+            lost_at = self._link_lost_at
+            if lost_at is None or rospy.get_time() - lost_at > self.link_grace:
+                break
+            try:
+                rospy.sleep(0.02)
+            except rospy.ROSInterruptException:
+                break
+        if not self.driver.connected:
+            return False
+        with self._poll_lock:
+            pass       # the poll thread has done its reconnection (it halts idle axes) first
+        return self.driver.connected
 
     # --- goal bookkeeping ----------------------------------------------------------------
     def _register(self, entry):
@@ -398,6 +503,7 @@ class MotionServer(object):
 
     def _plan_axes_move(self, names, targets, speeds):
         """Check a move against the connection and the last poll; nothing is written."""
+        self._await_link()
         _, state = self._snapshot()
         if state is None or not self.driver.connected:
             raise ConnectionLost('no connection to the motion controller at %s: %s'
@@ -415,14 +521,18 @@ class MotionServer(object):
         tolerances = [self.tol_linear if self.limits[n].linear else self.tol_angular
                       for n in names]
         units = [self.limits[n].unit for n in names]
-        for i, target, speed, n in zip(indices, targets, speeds, names):
-            self.driver.move(i, target, speed, self.limits[n].acceleration)
+        accelerations = [self.limits[n].acceleration for n in names]
+
+        def write():
+            for i, target, speed, acceleration in zip(indices, targets, speeds, accelerations):
+                self.driver.move(i, target, speed, acceleration)
+        self._write_through_outage(write)
         first_poll = self._snapshot()[0] + 1
         deadline = rospy.get_time() + budget
         monitor = mg.AxesMoveMonitor(indices, names, targets,
                                      [state.axes[i].position for i in indices], tolerances,
                                      first_poll, deadline, self.regmap.fault_text, units)
-        return _Active(key, handle, monitor, finish, feedback)
+        return _Active(key, handle, monitor, finish, feedback, resend=write)
 
     def _feedback_move_robot(self, handle, monitor, _state):
         if monitor.percent != getattr(monitor, 'sent', None):
@@ -515,19 +625,24 @@ class MotionServer(object):
     def _start_end_effector(self, handle, goal):
         if not math.isfinite(goal.timeout) or goal.timeout < 0.0:
             raise mg.GoalError('timeout must be finite and >= 0, got %r' % goal.timeout)
+        self._await_link()
         _, state = self._snapshot()
         if state is None or not self.driver.connected:
             raise ConnectionLost('no connection to the motion controller at %s: %s'
                                  % (self.endpoint, self.driver.last_error or 'not connected'))
         now = rospy.get_time()
+        resend = None
         if goal.command == EndEffectorGoal.SUCTION_ON:
             timeout = goal.timeout or self.suction_timeout
-            self.driver.set_suction(True)
-            monitor = mg.SuctionOnMonitor(self._snapshot()[0] + 1, now + timeout, timeout)
+            resend = functools.partial(self.driver.set_suction, True)
+            self._write_through_outage(resend)
+            monitor = mg.SuctionOnMonitor(self._snapshot()[0] + 1, rospy.get_time() + timeout,
+                                          timeout)
         elif goal.command == EndEffectorGoal.SUCTION_OFF:
             timeout = goal.timeout or self.suction_timeout
-            self.driver.set_suction(False)
-            monitor = mg.SuctionOffMonitor(self._snapshot()[0] + 1, now + timeout)
+            resend = functools.partial(self.driver.set_suction, False)
+            self._write_through_outage(resend)
+            monitor = mg.SuctionOffMonitor(self._snapshot()[0] + 1, rospy.get_time() + timeout)
         elif goal.command == EndEffectorGoal.SHEAR_CUT:
             timeout = goal.timeout or self.shear_timeout
             if state.shear_busy:
@@ -538,7 +653,8 @@ class MotionServer(object):
         else:
             raise mg.GoalError('unknown end effector command %d (1 SUCTION_ON, 2 SUCTION_OFF, '
                                '3 SHEAR_CUT)' % goal.command)
-        return _Active('end_effector', handle, monitor, self._finish_end_effector, None)
+        return _Active('end_effector', handle, monitor, self._finish_end_effector, None,
+                       resend=resend)
 
     def _finish_end_effector(self, handle, outcome, state, preempted=False):
         if (not outcome.success and isinstance(handle.get_goal(), EndEffectorGoal) and
