@@ -28,3 +28,51 @@ def test_clear_preempts_services_every_pending_request_in_a_tree():
     clear_preempts(cc)
     assert not any(s.preempt_requested() for s in (cc, inner, leaf_a, leaf_b))
     assert inner.execute(smach.UserData()) == 'done'
+
+
+def _context(records):
+    from control_pkg import mission as mission_lib
+    from control_pkg.executive_states import MissionContext
+    recorder = mission_lib.MissionRecorder('m1')
+    context = MissionContext({}, mission_lib.Progress([0]), recorder, publish_record=records.append)
+    context.now = lambda: 10.0
+    recorder.begin_fruit(0, 7, (0.5, 0.1, 1.0), 2.0)
+    return context
+
+
+def test_a_fruit_placed_with_no_vacuum_on_the_cup_is_recorded_dropped_and_counted():
+    # the valve closed over the box with no vacuum (released_empty): the graph says picked,
+    # the record says dropped, with why; it is off the plant either way (not tried again)
+    from harvest_msgs.msg import EndEffectorResult
+    from control_pkg import executive_goals as goals
+    from control_pkg import mission as mission_lib
+    from control_pkg.executive_states import EndFruit
+    records = []
+    context = _context(records)
+    context.dropped = goals.dropped_on_the_way(EndEffectorResult(success=True, released_empty=True))
+    assert 'vacuum lost while carrying' in context.dropped
+    assert EndFruit(context, mission_lib.OUTCOME_PICKED).execute(None) == 'done'
+    assert [(r.target_id, r.outcome) for r in records] == [(7, mission_lib.OUTCOME_DROPPED)]
+    assert 'no vacuum' in records[0].reason
+    assert context.dropped is None and 7 in context.gone
+    totals = context.recorder.totals()
+    assert (totals['picked'], totals['dropped']) == (0, 1)
+
+
+def test_a_fruit_placed_on_vacuum_stays_picked_and_other_outcomes_ignore_the_flag():
+    from harvest_msgs.msg import EndEffectorResult
+    from control_pkg import executive_goals as goals
+    from control_pkg import mission as mission_lib
+    from control_pkg.executive_states import EndFruit
+    assert goals.dropped_on_the_way(EndEffectorResult(success=True)) is None
+    assert goals.dropped_on_the_way(None) is None
+    records = []
+    context = _context(records)
+    EndFruit(context, mission_lib.OUTCOME_PICKED).execute(None)
+    context.recorder.begin_fruit(0, 8, (0.6, 0.1, 1.0), 11.0)
+    context.dropped = 'stale'
+    context.last_error = 'beyond reach'
+    EndFruit(context, mission_lib.OUTCOME_UNREACHABLE).execute(None)
+    assert [(r.target_id, r.outcome, r.reason) for r in records] == [
+        (7, mission_lib.OUTCOME_PICKED, ''), (8, mission_lib.OUTCOME_UNREACHABLE, 'beyond reach')]
+    assert context.dropped is None

@@ -180,7 +180,10 @@ def test_mission_stats():
     f = st.add_record('m1', 0, 4, 0, '', ['DO_KINEMATICS', 'DO_MOVE_ROBOT', 'DO_MOVE_ROBOT'], [0.5, 2.0, 1.5], 4.5)
     assert f.stage_totals() == [('DO_KINEMATICS', 0.5), ('DO_MOVE_ROBOT', 3.5)]
     st.add_record('m1', 0, 5, 1, 'beyond reach', ['DO_KINEMATICS'], [0.2], 0.3)
-    assert st.counts() == {'picked': 1, 'unreachable': 1, 'lost': 0, 'failed': 0}
+    assert st.counts() == {'picked': 1, 'unreachable': 1, 'lost': 0, 'failed': 0, 'dropped': 0}
+    st.add_record('m1', 0, 6, 4, 'dropped on the way to the box', [], [], 9.0)   # OUTCOME_DROPPED
+    assert st.counts()['dropped'] == 1 and st.fruits[-1].outcome == 'dropped'
+    assert '1 dropped' in st.progress_text()
     assert st.mean_cycle() == 4.5
     assert st.points == [0]
     assert 'mean pick cycle 4.5 s' in st.progress_text()

@@ -496,10 +496,16 @@ class _Callbacks(object):
         phase = {EndEffectorGoal.SHEAR_CUT: checkpoint_lib.PHASE_PLACE,
                  EndEffectorGoal.SUCTION_OFF: after}.get(command)
 
+        box = command == EndEffectorGoal.SUCTION_OFF and after == checkpoint_lib.PHASE_PLACED
+
         def cb(ud, status, result):
             verdict = self.ee_result(ud, status, result)
             if verdict is None and phase is not None and goals.succeeded(status):
                 self.context.checkpoint.phase(phase)
+                if box:
+                    self.context.dropped = goals.dropped_on_the_way(result)
+                    if self.context.dropped:
+                        rospy.logwarn('executive: %s', self.context.dropped)
             return verdict
         return cb
 

@@ -184,6 +184,16 @@ def report_failure(status, result):
     return None
 
 
+def dropped_on_the_way(result):
+    """Why the fruit placed was not in the box (text), or None: the suction valve closed over
+    the box (SUCTION_OFF succeeded) with no vacuum on the cup when the command came
+    (`released_empty`), so the fruit had come off it on the way (vacuum lost while carrying)."""
+    if result is None or not getattr(result, 'released_empty', False):
+        return None
+    return ('dropped on the way to the box: no vacuum on the suction cup when the valve closed '
+            'over the box (vacuum lost while carrying)')
+
+
 class Relocation(object):
     """What the look at the held fruit decided: `target` is the new estimate or None (keep the
     first one), `why` one of: no-result, no-estimate, not-found, smaller, moved."""

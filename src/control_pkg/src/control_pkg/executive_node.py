@@ -46,6 +46,7 @@ _OUTCOME_CODES = {
     mission_lib.OUTCOME_UNREACHABLE: PickRecord.OUTCOME_UNREACHABLE,
     mission_lib.OUTCOME_LOST: PickRecord.OUTCOME_LOST,
     mission_lib.OUTCOME_FAILED: PickRecord.OUTCOME_FAILED,
+    mission_lib.OUTCOME_DROPPED: PickRecord.OUTCOME_DROPPED,
 }
 _OUTCOME_NAMES = dict((v, k) for k, v in _OUTCOME_CODES.items())
 #: mission outcomes that finish its checkpoint (a preempted one, the node shut down, goes on)
@@ -484,9 +485,9 @@ class TaskPlanner(object):
         summary = mission_lib.summary_json(totals)       # strict JSON: null, never NaN
         self._summary_pub.publish(String(data=summary))
         self.publish_event('summary', '', summary)
-        rospy.loginfo('task_planner: mission %s ended %s: picked %d, unreachable %d, lost %d, failed %d',
-                      self.mission_id, self.outcome, totals['picked'], totals['unreachable'], totals['lost'],
-                      totals['failed'])
+        rospy.loginfo('task_planner: mission %s ended %s: picked %d, unreachable %d, lost %d, failed %d, '
+                      'dropped %d', self.mission_id, self.outcome, totals['picked'], totals['unreachable'],
+                      totals['lost'], totals['failed'], totals['dropped'])
         if self.shutdown_when_done:
             rospy.signal_shutdown('mission ended')
 

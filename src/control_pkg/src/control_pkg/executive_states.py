@@ -47,6 +47,10 @@ class MissionContext(object):
         self.resume = None
         self.resume_snapshot = None
         self.skip = {}
+        # why the fruit being placed was not on the cup when the valve closed over the box (set
+        # by that SUCTION_OFF's result, executive_goals.dropped_on_the_way): its record, picked
+        # by the graph's outcome, is then `dropped` (EndFruit, ResumeRecord); None otherwise
+        self.dropped = None
 
     def set_joints(self, names, positions):
         """Merge a (partial) joint_states message."""
@@ -325,10 +329,14 @@ class EndFruit(smach.State):
         self._outcome = outcome
 
     def execute(self, ud):
-        reason = '' if self._outcome == mission_lib.OUTCOME_PICKED else self._context.last_error
-        record = self._context.recorder.end_fruit(self._outcome, self._context.now(), reason)
-        if record is not None and self._outcome == mission_lib.OUTCOME_PICKED:
-            self._context.gone.add(record.target_id)
+        outcome, dropped = self._outcome, self._context.dropped
+        self._context.dropped = None
+        reason = '' if outcome == mission_lib.OUTCOME_PICKED else self._context.last_error
+        if outcome == mission_lib.OUTCOME_PICKED and dropped:
+            outcome, reason = mission_lib.OUTCOME_DROPPED, dropped
+        record = self._context.recorder.end_fruit(outcome, self._context.now(), reason)
+        if record is not None and outcome in (mission_lib.OUTCOME_PICKED, mission_lib.OUTCOME_DROPPED):
+            self._context.gone.add(record.target_id)       # off the plant either way
         if record is not None:
             self._context.publish_record(record)
             # after the record: a restart between the two finds the record in the store
@@ -468,6 +476,9 @@ class ResumeRecord(smach.State):
         reason = ('' if outcome == mission_lib.OUTCOME_PICKED else
                   'released after a restart of the task planner: it could not be placed (%s)'
                   % (c.last_error or 'no reason given'))
+        if outcome == mission_lib.OUTCOME_PICKED and c.dropped:
+            outcome, reason = mission_lib.OUTCOME_DROPPED, c.dropped
+        c.dropped = None
         now = c.now()
         c.recorder.begin_fruit(snap.picking_point, snap.target_id, snap.target_position, now)
         record = c.recorder.end_fruit(outcome, now, reason)

@@ -12,7 +12,8 @@ OUTCOME_PICKED = 'picked'
 OUTCOME_UNREACHABLE = 'unreachable'
 OUTCOME_LOST = 'lost'
 OUTCOME_FAILED = 'failed'
-OUTCOMES = (OUTCOME_PICKED, OUTCOME_UNREACHABLE, OUTCOME_LOST, OUTCOME_FAILED)
+OUTCOME_DROPPED = 'dropped'     # cut, then lost on the way to the box (vacuum lost while carrying)
+OUTCOMES = (OUTCOME_PICKED, OUTCOME_UNREACHABLE, OUTCOME_LOST, OUTCOME_FAILED, OUTCOME_DROPPED)
 
 
 class Progress(object):
@@ -201,6 +202,7 @@ class MissionRecorder(object):
             'unreachable': self.count(OUTCOME_UNREACHABLE),
             'lost': self.count(OUTCOME_LOST),
             'failed': self.count(OUTCOME_FAILED),
+            'dropped': self.count(OUTCOME_DROPPED),
             'mean_cycle_time': finite_or_none(self.mean_cycle_time()),     # None: nothing picked
             'duration': finite_or_none((self.end_time - self.start_time)
                                        if (self.start_time is not None and self.end_time is not None)

@@ -36,7 +36,7 @@ __all__ = ['Store', 'StoreError', 'SchemaVersionError', 'MIGRATIONS', 'SCHEMA_VE
            'OUTCOMES', 'RIPENESS_STAGES', 'PHASES']
 
 # PickRecord.OUTCOME_* and Tomato.STAGE_* (harvest_msgs), repeated here so this module needs no ROS.
-OUTCOMES = (0, 1, 2, 3)
+OUTCOMES = (0, 1, 2, 3, 4)
 RIPENESS_STAGES = (0, 1, 2, 3)
 
 SYNCHRONOUS_MODES = ('NORMAL', 'FULL', 'EXTRA')

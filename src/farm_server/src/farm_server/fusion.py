@@ -48,7 +48,7 @@ __all__ = ['FusionConfig', 'fuse', 'FarmState', 'day_start', 'day_of', 'OUTCOME_
            'DEFAULT_ROW']
 
 OUTCOME_PICKED = 0          # harvest_msgs/PickRecord.OUTCOME_PICKED
-OUTCOME_NAMES = {0: 'picked', 1: 'unreachable', 2: 'lost', 3: 'failed'}
+OUTCOME_NAMES = {0: 'picked', 1: 'unreachable', 2: 'lost', 3: 'failed', 4: 'dropped'}
 DEFAULT_ROW = 'default'
 DAY = 86400.0
 

@@ -75,8 +75,8 @@ class PickRecord(BaseModel):
     y: float
     z: float
     frame_id: str = _text(100, 1)
-    outcome: int = Field(ge=0, le=3, description='PickRecord.OUTCOME_*: 0 picked, 1 '
-                                                 'unreachable, 2 lost, 3 failed')
+    outcome: int = Field(ge=0, le=4, description='PickRecord.OUTCOME_*: 0 picked, 1 '
+                                                 'unreachable, 2 lost, 3 failed, 4 dropped')
     reason: str = _text(2000)
     state_names: List[str] = Field(max_length=100)
     state_durations: List[float] = Field(max_length=100)

@@ -25,7 +25,11 @@ Params:
       after the other, each as soon as its state is active (the first time after the previous
       fault): `link_drop SECONDS` (the simulated controller drops every Modbus connection and
       refuses new ones for that long), `camera CAMERA SECONDS` (stereo, hand: publishes
-      nothing for that long); the mission must still end as ~expect_outcome with every check
+      nothing for that long), `vacuum_loss` (the held fruit drops off the suction cup); the
+      mission must still end as ~expect_outcome with every check
+  ~expect_dropped (int, 0): fruit that fall to the floor (vacuum_loss while carrying): so many
+      are DROPPED in the world, recorded `dropped` and counted in the summary; every other ripe
+      reachable fruit is collected
 """
 import json
 import math
@@ -134,10 +138,15 @@ class MissionTest(unittest.TestCase):
         cut = [f for f in fruits if f.state in CUT_STATES]
         self.assertEqual([f.id for f in cut if not f.ripe], [], 'unripe fruit cut')
         self.assertEqual([f.id for f in cut if not f.reachable], [], 'out-of-reach fruit cut')
-        self.assertEqual([(f.id, f.state_name) for f in fruits if f.state in (SimFruit.DROPPED, SimFruit.DAMAGED)],
-                         [], 'fruit dropped or damaged')
+        self.assertEqual([(f.id, f.state_name) for f in fruits if f.state == SimFruit.DAMAGED],
+                         [], 'fruit damaged')
+        dropped = [f.id for f in fruits if f.state == SimFruit.DROPPED]
+        expect_dropped = int(rospy.get_param('~expect_dropped', 0))
+        self.assertEqual(len(dropped), expect_dropped, 'fruit dropped: %s' % dropped)
+        self.assertEqual(s.get('dropped', 0), expect_dropped, 'dropped fruit not recorded so: %s' % s)
         if rospy.get_param('~expect_harvest_all', True):
-            missed = [f.id for f in fruits if f.ripe and f.reachable and f.state != SimFruit.COLLECTED]
+            missed = [f.id for f in fruits if f.ripe and f.reachable and f.state != SimFruit.COLLECTED
+                      and f.id not in dropped]
             self.assertEqual(missed, [], 'ripe reachable fruit not harvested: %s' % missed)
             self.assertEqual(s['picked'], truth.collected, 'executive record and ground truth disagree')
         if kill_in:
@@ -171,6 +180,8 @@ class MissionTest(unittest.TestCase):
         elif kind == 'camera':
             resp = rospy.ServiceProxy('/sim/sim_world/camera_silence', SilenceCamera)(
                 camera=args[0], duration=float(args[1]))
+        elif kind == 'vacuum_loss':
+            resp = rospy.ServiceProxy('/sim/sim_world/vacuum_loss', Trigger)()
         else:
             self.fail('unknown fault kind %r in %r' % (kind, spec))
         self.assertTrue(resp.success, resp.message)

@@ -632,6 +632,7 @@ class MotionServer(object):
                                  % (self.endpoint, self.driver.last_error or 'not connected'))
         now = rospy.get_time()
         resend = None
+        finish = self._finish_end_effector
         if goal.command == EndEffectorGoal.SUCTION_ON:
             timeout = goal.timeout or self.suction_timeout
             resend = functools.partial(self.driver.set_suction, True)
@@ -640,6 +641,8 @@ class MotionServer(object):
                                           timeout)
         elif goal.command == EndEffectorGoal.SUCTION_OFF:
             timeout = goal.timeout or self.suction_timeout
+            finish = functools.partial(self._finish_end_effector,
+                                       released_empty=not state.vacuum_ok)
             resend = functools.partial(self.driver.set_suction, False)
             self._write_through_outage(resend)
             monitor = mg.SuctionOffMonitor(self._snapshot()[0] + 1, rospy.get_time() + timeout)
@@ -653,10 +656,10 @@ class MotionServer(object):
         else:
             raise mg.GoalError('unknown end effector command %d (1 SUCTION_ON, 2 SUCTION_OFF, '
                                '3 SHEAR_CUT)' % goal.command)
-        return _Active('end_effector', handle, monitor, self._finish_end_effector, None,
-                       resend=resend)
+        return _Active('end_effector', handle, monitor, finish, None, resend=resend)
 
-    def _finish_end_effector(self, handle, outcome, state, preempted=False):
+    def _finish_end_effector(self, handle, outcome, state, preempted=False, released_empty=False):
+        """released_empty: SUCTION_OFF came with no vacuum on the cup (the last poll's)."""
         if (not outcome.success and isinstance(handle.get_goal(), EndEffectorGoal) and
                 handle.get_goal().command == EndEffectorGoal.SUCTION_ON and
                 outcome.code == mg.TIMEOUT):
@@ -666,7 +669,8 @@ class MotionServer(object):
             except DriverError as exc:
                 outcome.text += '; closing the valve failed: %s' % exc
         result = EndEffectorResult(success=outcome.success, message=outcome.text,
-                                   vacuum_ok=bool(state is not None and state.vacuum_ok))
+                                   vacuum_ok=bool(state is not None and state.vacuum_ok),
+                                   released_empty=bool(released_empty))
         if outcome.success:
             handle.set_succeeded(result, outcome.text)
         elif preempted:

@@ -28,7 +28,8 @@ from harvest_description import robot_config
 from visualization_pkg.arm_geometry import ArmGeometry
 
 OUTCOME_RGBA = {PickRecord.OUTCOME_PICKED: (0.18, 0.8, 0.25, 0.9), PickRecord.OUTCOME_UNREACHABLE: (1.0, 0.55, 0.0, 0.9),
-                PickRecord.OUTCOME_LOST: (0.6, 0.2, 0.8, 0.9), PickRecord.OUTCOME_FAILED: (0.9, 0.1, 0.1, 0.9)}
+                PickRecord.OUTCOME_LOST: (0.6, 0.2, 0.8, 0.9), PickRecord.OUTCOME_FAILED: (0.9, 0.1, 0.1, 0.9),
+                PickRecord.OUTCOME_DROPPED: (0.45, 0.3, 0.2, 0.9)}
 ARM_RGBA = {'left': (0.2, 0.75, 1.0, 0.8), 'right': (1.0, 0.85, 0.2, 0.8)}
 
 

@@ -16,7 +16,7 @@ from visualization_pkg.dashboard import mission_stats, operator_events
 from visualization_pkg.dashboard.qt_common import Panel
 
 OUTCOME_COLOURS = {'picked': QColor('#2e7d32'), 'unreachable': QColor('#ef6c00'), 'lost': QColor('#8e24aa'),
-                   'failed': QColor('#c62828')}
+                   'failed': QColor('#c62828'), 'dropped': QColor('#6d4c41')}
 STAGE_PALETTE = ['#42a5f5', '#66bb6a', '#ffa726', '#ab47bc', '#26c6da', '#ef5350', '#8d6e63', '#d4e157',
                  '#5c6bc0', '#ec407a', '#78909c', '#26a69a']
 
@@ -239,7 +239,7 @@ class MissionPanel(Panel):
         s = self.stats.summary
         if s:
             text += '<br><b>finished</b> (%s): %s' % (s.get('outcome', '?'), ', '.join(
-                '%s %s' % (k, s[k]) for k in ('picked', 'unreachable', 'lost', 'failed') if k in s))
+                '%s %s' % (k, s[k]) for k in mission_stats.OUTCOMES if k in s))
         self.header.setText(text)
 
     def save_settings(self, s):

@@ -4,7 +4,7 @@ Fed with plain values (the panel unpacks harvest_msgs/PickRecord and MissionEven
 """
 import json
 
-OUTCOMES = ('picked', 'unreachable', 'lost', 'failed')   # PickRecord.OUTCOME_* = index
+OUTCOMES = ('picked', 'unreachable', 'lost', 'failed', 'dropped')   # PickRecord.OUTCOME_* = index
 
 
 class Fruit(object):
