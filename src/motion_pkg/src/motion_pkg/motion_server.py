@@ -343,6 +343,9 @@ class MotionServer(object):
         """A goal that comes while the link is down (lost less than `link_grace` ago) waits for
         it (ROS time) before it is checked: the outage a running goal rides through does not
         fail the next goal either. True when connected."""
+        if not self.driver.connected and self._link_lost_at is None and self.driver.connects > 0:
+            # lost a moment ago: the poll thread has not noted it yet
+            self._note_link_lost(self.driver.last_error or 'connection lost')
         while not self.driver.connected and not rospy.is_shutdown():
             lost_at = self._link_lost_at
             if lost_at is None or rospy.get_time() - lost_at > self.link_grace:
