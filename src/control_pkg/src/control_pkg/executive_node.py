@@ -10,7 +10,8 @@ Node `task_planner`
               operator has cleared the fault: continue_after_fault)
   Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR;
               get_checkpoint, get_mission_records (database_pkg) once at start (~resume_unfinished)
-  Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent),
+  Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent)
+              (both sent again in full to a subscriber that connects later: _Replayed),
               mission/checkpoints (harvest_msgs/Checkpoint, latched, synchronous: the progress),
               mission/summary (std_msgs/String, JSON totals, latched), ~state (std_msgs/String, latched)
   Introspection: <~introspection_name>/smach/container_structure, container_status, container_init
@@ -84,6 +85,30 @@ class _Subscribed(rospy.SubscribeListener):
 
     def peer_subscribe(self, topic_name, topic_publish, peer_publish):
         self.event.set()
+
+
+class _Replayed(_Subscribed):
+    """A publisher's history of this run, sent again to every subscriber that connects: a
+    database_node that (re)starts mid-mission (respawned after a crash) gets every record and
+    event it missed, and a dashboard started late the whole mission (the store keeps each once:
+    database_pkg schema 5)."""
+
+    def __init__(self):
+        _Subscribed.__init__(self)
+        self._lock = threading.Lock()
+        self._sent = []
+
+    def publish(self, publisher, msg):
+        with self._lock:
+            self._sent.append(msg)
+        publisher.publish(msg)
+
+    def peer_subscribe(self, topic_name, topic_publish, peer_publish):
+        with self._lock:
+            history = list(self._sent)
+        for msg in history:
+            peer_publish(msg)
+        _Subscribed.peer_subscribe(self, topic_name, topic_publish, peer_publish)
 
 
 def defaults_path():
@@ -182,8 +207,10 @@ class TaskPlanner(object):
         self.recorder = mission_lib.MissionRecorder(self.mission_id)
         self.shutdown_when_done = rospy.get_param('~shutdown_when_done', False)
 
-        self._record_pub = rospy.Publisher('mission/pick_records', PickRecord, queue_size=100)
-        self._event_listener = _Subscribed()
+        self._record_listener = _Replayed()
+        self._record_pub = rospy.Publisher('mission/pick_records', PickRecord, queue_size=100,
+                                           subscriber_listener=self._record_listener)
+        self._event_listener = _Replayed()
         self._event_pub = rospy.Publisher('mission/events', MissionEvent, queue_size=100,
                                           subscriber_listener=self._event_listener)
         self._summary_pub = rospy.Publisher('mission/summary', String, queue_size=1, latch=True)
@@ -440,8 +467,8 @@ class TaskPlanner(object):
 
     # --- records ---------------------------------------------------------------------------------
     def publish_event(self, kind, state, detail):
-        self._event_pub.publish(MissionEvent(mission_id=self.mission_id, stamp=rospy.Time.now(), kind=kind,
-                                             state=state, detail=detail))
+        self._event_listener.publish(self._event_pub, MissionEvent(
+            mission_id=self.mission_id, stamp=rospy.Time.now(), kind=kind, state=state, detail=detail))
         if kind in ('state', 'estop', 'resume', 'fault'):
             self._state_pub.publish(String(data='%s: %s' % (state, detail)))
 
@@ -455,7 +482,7 @@ class TaskPlanner(object):
                          stamp=rospy.Time.now())
         msg.pick_point.header.frame_id = self.config['base_frame']
         msg.pick_point.point.x, msg.pick_point.point.y, msg.pick_point.point.z = record.position
-        self._record_pub.publish(msg)
+        self._record_listener.publish(self._record_pub, msg)
 
     # --- running ---------------------------------------------------------------------------------
     def start(self):

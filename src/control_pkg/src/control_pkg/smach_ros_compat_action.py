@@ -20,7 +20,12 @@ SimpleActionState, written anew for this workspace. Differences, all deliberate:
   pending publisher updates of a topic, so when a server registers while the client's own
   registration is answered, the client may keep the empty list and never connect to it (seen
   once in some 500 whole-mission runs: `self_test/feedback` never connected, and the mission
-  aborted at DO_START with the server up). Connected publishers are left as they are.
+  aborted at DO_START with the server up). Connected publishers are left as they are;
+- a goal whose server dies (its node killed, to be respawned) ends `aborted` ("action server
+  lost") once the server's connection to the goal topic has been gone for two checks
+  `SERVER_CHECK_PERIOD` apart (ROS time), instead of waiting out exec_timeout: actionlib sends
+  no status for it any more, so its goal handle would never change. The next goal waits for
+  the server again (a retry reaches the respawned one).
 """
 import copy
 import threading
@@ -43,6 +48,21 @@ _ACTION_TOPICS = ('status', 'result', 'feedback')
 
 _STATUS_NAMES = dict((value, name) for name, value in vars(GoalStatus).items()
                      if name.isupper() and isinstance(value, int))
+
+
+#: while a goal runs, whether its server is still connected is checked this often (ROS time)
+SERVER_CHECK_PERIOD = rospy.Duration(0.5)
+
+
+def server_connected(client):
+    """True/False: the action server that last sent `client` a status is connected to its goal
+    topic; None when that cannot be told (no status yet)."""
+    status = getattr(client, 'last_status_msg', None)
+    header = getattr(status, '_connection_header', None) or {}
+    server_id = header.get('callerid')
+    if not server_id:
+        return None
+    return bool(client.pub_goal.impl.has_connection(server_id))
 
 
 def resend_publishers(namespace, names):
@@ -216,6 +236,7 @@ class SimpleActionState(smach.State):
         self.goal_status_text = ''   # text of the last goal's final status (the server's reason)
         self._exec_expired = False
         self._cancel_expired = False
+        self._server_lost = False
         self._ud = None
 
         self._client = ActionClient(action_name, action_spec)
@@ -362,7 +383,18 @@ class SimpleActionState(smach.State):
             self.goal_status_text = ''
             self._exec_expired = False
             self._cancel_expired = False
+            self._server_lost = False
             self._ud = ud
+        missing = [0]            # consecutive checks that found the server gone
+
+        def check_server(_event):
+            connected = server_connected(self._client)
+            missing[0] = missing[0] + 1 if connected is False else 0
+            if missing[0] >= 2:
+                with self._cond:
+                    if self._goal_id == goal_id and not self._goal_done:
+                        self._server_lost = True
+                        self._cond.notify_all()
 
         def transition_cb(handle):
             if handle.get_comm_state() != CommState.DONE:
@@ -388,18 +420,29 @@ class SimpleActionState(smach.State):
         handle = self._client.send_goal(goal, transition_cb, feedback_cb)
         if self._exec_timeout:
             timers.append(self._start_timer(self._exec_timeout, '_exec_expired', goal_id))
+        timers.append(rospy.Timer(SERVER_CHECK_PERIOD, check_server))
         cancel_sent = False
         outcome = None
         try:
             while True:
                 with self._cond:
                     while not (self._goal_done or self._cancel_expired or rospy.is_shutdown()
+                               or self._server_lost
                                or (not cancel_sent
                                    and (self._exec_expired or self.preempt_requested()))):
                         self._cond.wait()
                     done = self._goal_done
                     cancel_expired = self._cancel_expired
+                    lost = self._server_lost
                 if done:
+                    break
+                if lost:
+                    rospy.logerr("Action server '%s' lost while it ran a goal" % self._action_name)
+                    with self._cond:
+                        self.goal_status_text = ('action server %s lost while it ran the goal'
+                                                 % self._action_name)
+                        self._server_ready = False     # the next goal waits for it again
+                    outcome = 'aborted'
                     break
                 if rospy.is_shutdown() or cancel_expired:
                     if cancel_expired:

@@ -150,6 +150,18 @@ MIGRATIONS = (
         )""",
         "CREATE INDEX checkpoints_unfinished ON checkpoints(robot, updated) WHERE finished = 0",
     )),
+    # a pick record or event stored once however often it comes: the executive sends a
+    # (re)started database_node every record and event of its mission again (nothing published
+    # while the store was down is lost), and a file may hold copies from before (the first kept)
+    (5, 'a pick record or event is stored once (the executive replays them to a new store)', (
+        """DELETE FROM pick_records WHERE rowid NOT IN (SELECT MIN(rowid) FROM pick_records
+            GROUP BY mission_id, picking_point, target_id, stamp)""",
+        """CREATE UNIQUE INDEX pick_records_once
+            ON pick_records(mission_id, picking_point, target_id, stamp)""",
+        """DELETE FROM events WHERE rowid NOT IN (SELECT MIN(rowid) FROM events
+            GROUP BY mission_id, stamp, kind, state, detail)""",
+        "CREATE UNIQUE INDEX events_once ON events(mission_id, stamp, kind, state, detail)",
+    )),
 )
 SCHEMA_VERSION = MIGRATIONS[-1][0]
 
@@ -448,7 +460,8 @@ class Store(object):
         return ids
 
     def add_pick_record(self, record, site=''):
-        """Store one PickRecord (a dict, see harvest_msgs/PickRecord). Returns its id."""
+        """Store one PickRecord (a dict, see harvest_msgs/PickRecord) once: the same record
+        (mission, picking point, target, stamp) again changes nothing. Returns its id."""
         what = 'pick record'
         mission_id = _mission_id(what, record)
         x, y, z = _position(what, _field(what, record, 'position'), allow_none=False)
@@ -485,12 +498,18 @@ class Store(object):
             cur.execute(
                 'INSERT INTO pick_records (id, created, mission_id, picking_point, target_id, '
                 'x, y, z, frame_id, outcome, reason, state_names, state_durations, cycle_time, '
-                'stamp) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)',
+                'stamp) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) '
+                'ON CONFLICT(mission_id, picking_point, target_id, stamp) DO NOTHING',
                 (row_id, self._clock()) + row)
+            if cur.rowcount == 0:
+                row_id = cur.execute(
+                    'SELECT id FROM pick_records WHERE mission_id = ? AND picking_point = ? AND '
+                    'target_id = ? AND stamp = ?', (row[0], row[1], row[2], stamp)).fetchone()[0]
         return row_id
 
     def add_event(self, event, site=''):
-        """Store one MissionEvent (a dict). kind 'summary' also ends the mission. Returns its id."""
+        """Store one MissionEvent (a dict) once (the same mission, stamp, kind, state and detail
+        again changes nothing). kind 'summary' also ends the mission. Returns its id."""
         what = 'event'
         mission_id = _mission_id(what, event)
         stamp = _real(what, 'stamp', _field(what, event, 'stamp'), minimum=0.0)
@@ -501,8 +520,13 @@ class Store(object):
         with self._transaction() as cur:
             self._ensure_mission(cur, mission_id, stamp, _text(what, 'site', site))
             cur.execute('INSERT INTO events (id, created, mission_id, stamp, kind, state, detail) '
-                        'VALUES (?, ?, ?, ?, ?, ?, ?)',
+                        'VALUES (?, ?, ?, ?, ?, ?, ?) '
+                        'ON CONFLICT(mission_id, stamp, kind, state, detail) DO NOTHING',
                         (row_id, self._clock(), mission_id, stamp, kind, state, detail))
+            if cur.rowcount == 0:
+                return cur.execute(
+                    'SELECT id FROM events WHERE mission_id = ? AND stamp = ? AND kind = ? AND '
+                    'state = ? AND detail = ?', (mission_id, stamp, kind, state, detail)).fetchone()[0]
             if kind == 'summary':
                 cur.execute('UPDATE missions SET ended = ?, summary = ? WHERE mission_id = ?',
                             (stamp, detail, mission_id))

@@ -21,12 +21,15 @@ Params:
       (motion_pkg's enable_all) and ~resume continue it to the end (one `fault` event, one
       `resume` event of DO_ERROR, no fruit picked twice)
   ~faults (list of str, []): faults the robot must ride through without anyone's help, each
-      'CONTAINER/STATE KIND ARGS' (CONTAINER of PICK_TARGET: RIGHT_ARM, LEFT_ARM, PLACE), one
-      after the other, each as soon as its state is active (the first time after the previous
-      fault): `link_drop SECONDS` (the simulated controller drops every Modbus connection and
-      refuses new ones for that long), `camera CAMERA SECONDS` (stereo, hand: publishes
-      nothing for that long), `vacuum_loss` (the held fruit drops off the suction cup); the
+      'PATH/STATE KIND ARGS' (PATH of a container below MISSION: SCAN, PICK_TARGET/RIGHT_ARM,
+      PICK_TARGET/LEFT_ARM, PICK_TARGET/PLACE), one after the other, each as soon as its state
+      is active (the first time after the previous fault): `link_drop SECONDS` (the simulated
+      controller drops every Modbus connection and refuses new ones for that long), `camera
+      CAMERA SECONDS` (stereo, hand: publishes nothing for that long), `vacuum_loss` (the held
+      fruit drops off the suction cup), `kill NODE` (SIGKILL; the launch respawns it); the
       mission must still end as ~expect_outcome with every check
+  ~expect_records (bool, false): the store's records of the mission (get_mission_records)
+      agree with the world: as many picked as fruit in the box, no two at one place
   ~expect_dropped (int, 0): fruit that fall to the floor (vacuum_loss while carrying): so many
       are DROPPED in the world, recorded `dropped` and counted in the summary; every other ripe
       reachable fruit is collected
@@ -48,14 +51,15 @@ from harvest_sim.srv import FaultWindow, GetSimSummary, SilenceCamera
 from sensor_msgs.msg import JointState
 from smach_msgs.msg import SmachContainerStatus
 from std_msgs.msg import Bool, String
-from std_srvs.srv import Trigger
+from std_srvs.srv import Trigger, TriggerResponse
 try:
     from xmlrpc.client import ServerProxy
 except ImportError:  # Python 2
     from xmlrpclib import ServerProxy
 
 CUT_STATES = (SimFruit.HARVESTED, SimFruit.COLLECTED, SimFruit.DROPPED, SimFruit.DAMAGED)
-PICK_TARGET = '/SM_ROOT/RUN/MISSION/PICK_TARGET'
+MISSION = '/SM_ROOT/RUN/MISSION'
+PICK_TARGET = MISSION + '/PICK_TARGET'
 RIGHT_ARM = PICK_TARGET + '/RIGHT_ARM'
 
 
@@ -153,23 +157,43 @@ class MissionTest(unittest.TestCase):
             self.check_records_after_restart(s, truth)
         if fault_in:
             self.check_records_after_fault(s, truth)
+        if rospy.get_param('~expect_records', False):
+            self.check_records(s, truth)
 
     def kill_executive(self, w, label):
         self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == [label], 300.0),
                         '%s never became active: %s' % (label, w.active))
-        uri = rosgraph.Master('/mission_test').lookupNode('/task_planner')
-        self.assertTrue(uri, 'task_planner not registered')
+        pid = self.sigkill('/task_planner')
+        rospy.logwarn('mission_test: SIGKILL of task_planner (pid %d) in %s', pid, label)
+
+    def sigkill(self, node):
+        """SIGKILL a node of the launch (pid from its XML-RPC getPid); returns the pid."""
+        uri = rosgraph.Master('/mission_test').lookupNode(node)
+        self.assertTrue(uri, '%s not registered' % node)
         code, _msg, pid = ServerProxy(uri).getPid('/mission_test')
         self.assertEqual(code, 1)
-        rospy.logwarn('mission_test: SIGKILL of task_planner (pid %d) in %s', pid, label)
         os.kill(pid, signal.SIGKILL)
+        return pid
+
+    def check_records(self, s, truth):
+        """The store holds every record of the mission once: as many picked as fruit in the
+        box, no two at one place."""
+        rospy.wait_for_service('/get_mission_records', timeout=30.0)
+        resp = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)(mission_id=s['mission_id'])
+        self.assertTrue(resp.success, resp.message)
+        picked = [r for r in resp.records if r.outcome == PickRecord.OUTCOME_PICKED]
+        self.assertEqual(len(picked), truth.collected, [(r.target_id, r.outcome, r.reason) for r in resp.records])
+        self.assertEqual(len(resp.records), s['attempted'], 'records of the summary not all stored')
+        self.assert_no_two_at_one_place(resp.records)
+        kinds = [e.kind for e in resp.events]
+        self.assertEqual(kinds.count('summary'), 1, kinds)
 
     def ride_through(self, w, spec):
         """One fault of ~faults, injected once its state is active."""
         where, kind = spec.split()[:2]
         args = spec.split()[2:]
-        container, label = where.split('/')
-        path = PICK_TARGET + '/' + container
+        container, label = where.rsplit('/', 1)
+        path = MISSION + '/' + container
         with w.cond:
             w.active.pop(path, None)              # the first time after the previous fault
         self.assertTrue(w.wait(lambda: w.active.get(path) == [label], 300.0),
@@ -182,6 +206,8 @@ class MissionTest(unittest.TestCase):
                 camera=args[0], duration=float(args[1]))
         elif kind == 'vacuum_loss':
             resp = rospy.ServiceProxy('/sim/sim_world/vacuum_loss', Trigger)()
+        elif kind == 'kill':
+            resp = TriggerResponse(success=True, message='pid %d killed' % self.sigkill(args[0]))
         else:
             self.fail('unknown fault kind %r in %r' % (kind, spec))
         self.assertTrue(resp.success, resp.message)
@@ -191,6 +217,8 @@ class MissionTest(unittest.TestCase):
         """A drive fault mid-move: DO_ERROR names the axis and its code, every axis comes to
         rest; the operator clears the fault (enable_all) and resumes (task_planner/resume)."""
         axis, code = fault.split()
+        with w.cond:
+            w.active.pop(RIGHT_ARM, None)         # a move after an emergency stop's resume
         self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == [label], 300.0),
                         '%s never became active: %s' % (label, w.active))
         rospy.set_param('/sim/sim_controller/fault', 'axis_fault %s' % fault)
