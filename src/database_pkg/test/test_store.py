@@ -90,6 +90,17 @@ def columns(conn, table):
     return [row[1] for row in conn.execute('PRAGMA table_info(%s)' % table)]
 
 
+def old_file(path, version):
+    """An open connection to a new file at schema `version` (the released migrations up to it,
+    never edited), for upgrade tests to fill with rows of that version."""
+    conn = sqlite3.connect(path)
+    for reached, _description, statements in store_mod.MIGRATIONS[:version]:
+        for statement in statements:
+            conn.execute(statement)
+        conn.execute('PRAGMA user_version=%d' % reached)
+    return conn
+
+
 # ---------------------------------------------------------------- schema and migrations
 
 def test_migrations_are_numbered_in_order():

@@ -13,6 +13,7 @@ except ImportError:  # not built / devel not sourced: use the source tree
     from database_pkg import store as store_mod
 
 Store = store_mod.Store
+from test_store import old_file  # noqa: E402  (same folder: pytest puts it on the path)
 
 
 def checkpoint(**overrides):
@@ -33,11 +34,7 @@ def store(tmp_path):
 
 def test_v3_file_is_upgraded_to_checkpoints_keeping_its_rows(tmp_path):
     path = str(tmp_path / 'v3.db')
-    conn = sqlite3.connect(path)
-    for version, _description, statements in store_mod.MIGRATIONS[:3]:   # released: never edited
-        for statement in statements:
-            conn.execute(statement)
-        conn.execute('PRAGMA user_version=%d' % version)
+    conn = old_file(path, 3)
     conn.execute("INSERT INTO missions (id, created, mission_id, started) "
                  "VALUES ('a', 1.0, 'old', 10.0)")
     conn.execute("INSERT INTO events (id, created, mission_id, stamp, kind, state, detail) "

@@ -1,10 +1,8 @@
 """Schema 5: a pick record or event is stored once, however often it comes (the executive sends a
 respawned database_node every record and event of its mission again)."""
-import sqlite3
-
 from database_pkg import store as store_mod
 from database_pkg.store import Store
-from test_store import event, pick_record
+from test_store import event, old_file, pick_record
 
 
 def test_the_same_record_and_event_again_change_nothing(tmp_path):
@@ -24,11 +22,7 @@ def test_the_same_record_and_event_again_change_nothing(tmp_path):
 
 def test_v4_file_with_copies_keeps_the_first_of_each(tmp_path):
     path = str(tmp_path / 'v4.db')
-    conn = sqlite3.connect(path)
-    for version, _description, statements in store_mod.MIGRATIONS[:4]:   # released: never edited
-        for statement in statements:
-            conn.execute(statement)
-        conn.execute('PRAGMA user_version=%d' % version)
+    conn = old_file(path, 4)
     conn.execute("INSERT INTO missions (id, created, mission_id, started) VALUES ('a', 1.0, 'old', 10.0)")
     for row_id, reason in (('r1', 'first'), ('r2', 'copy')):
         conn.execute("INSERT INTO pick_records (id, created, mission_id, picking_point, target_id, x, y, z, "

@@ -1,21 +1,15 @@
 """tools/bench_mission.py --compare: the figures it prints from the runs of both schedules."""
 
-import importlib.util
 import io
-import os
 
 import pytest
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-BENCH = os.path.join(HERE, '..', '..', '..', 'tools', 'bench_mission.py')
+from harvest_test_utils.tools import load_tool
 
 
 @pytest.fixture(scope='module')
 def bench():
-    spec = importlib.util.spec_from_file_location('bench_mission', BENCH)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_tool('bench_mission')
 
 
 def run(cycles, box, broken=(), moves=(), ends=None):

@@ -1,23 +1,17 @@
 """tools/run_demo.py (`make demo`) when the launch ends early: the reason is reported, not a
 traceback of the clean-up."""
 
-import importlib.util
-import os
 import subprocess
 import sys
 
 import pytest
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-RUN_DEMO = os.path.join(HERE, '..', '..', '..', 'tools', 'run_demo.py')
+from harvest_test_utils.tools import load_tool
 
 
 @pytest.fixture(scope='module')
 def run_demo():
-    spec = importlib.util.spec_from_file_location('run_demo', RUN_DEMO)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_tool('run_demo')
 
 
 def test_stop_launch_after_the_launch_ended(run_demo):

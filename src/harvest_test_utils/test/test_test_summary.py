@@ -1,12 +1,8 @@
 """tools/test_summary.py: the closing line of `make test`, and why each failed test failed."""
 
-import importlib.util
-import os
-
 import pytest
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-SUMMARY = os.path.join(HERE, '..', '..', '..', 'tools', 'test_summary.py')
+from harvest_test_utils.tools import load_tool
 
 JUNIT = '''<?xml version="1.0" encoding="utf-8"?>
 <testsuite name="mission" tests="3" failures="1" errors="1">
@@ -26,10 +22,7 @@ AssertionError: 1 != 0 : [('restart', 'task_planner restarted')]</failure>
 
 @pytest.fixture(scope='module')
 def summary():
-    spec = importlib.util.spec_from_file_location('test_summary', SUMMARY)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_tool('test_summary')
 
 
 def test_failed_tests_are_named_with_the_first_lines_of_why(summary, tmp_path, capsys):
