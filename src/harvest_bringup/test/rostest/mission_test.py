@@ -7,7 +7,8 @@ Params:
   ~expect_harvest_all (bool, true): every ripe reachable fruit is collected in the box
   ~estop_during_right_move (bool, false): press the emergency stop while the right arm moves,
       check that every axis halts and the mission pauses, then resume it
-  ~expect_error (str, ''): a text the mission's last error must contain (DO_ERROR cases)
+  ~expect_error (str or list of str, ''): text(s) the mission's last error must contain (DO_ERROR
+      cases: each missing component named)
   ~timeout (float, ROS-time seconds, 600)
   ~expect_overlaps (bool, false): the task planner ran schedule pipelined and overlapped at
       least one step (its summary's `overlaps`)
@@ -132,8 +133,9 @@ class MissionTest(unittest.TestCase):
             overlapped = [k for k, v in s.get('overlaps', {}).items() if v.get('overlapped')]
             self.assertTrue(overlapped, 'no step overlapped: %s' % s.get('overlaps'))
         expect_error = rospy.get_param('~expect_error', '')
-        if expect_error:
-            self.assertIn(expect_error, s['last_error'])
+        for text in ([expect_error] if isinstance(expect_error, str) else expect_error):
+            if text:
+                self.assertIn(text, s['last_error'])
         fruits = w.fruits_at_rest()
         self.assertIsNotNone(fruits, 'no /sim/fruits')
         truth = rospy.ServiceProxy('/sim/get_summary', GetSimSummary)()
