@@ -32,7 +32,6 @@ from harvest_msgs.msg import (EndEffectorAction, EndEffectorFeedback, EndEffecto
                               MoveBaseResult, MoveRobotAction, MoveRobotFeedback,
                               MoveRobotResult)
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Bool
 from std_srvs.srv import Trigger, TriggerResponse
 
 from motion_pkg import motion_goals as mg
@@ -132,10 +131,6 @@ class MotionServer(object):
         self._publish_status()
         rospy.Service('halt_all', Trigger, self._on_halt_all)
         rospy.Service('enable_all', Trigger, self._on_enable_all)
-        # the emergency stop topic halts here too, one hop from the wire: it does not wait for
-        # the task planner (which halts as well, and pauses the mission), nor need it alive
-        rospy.Subscriber('emergency_stop', Bool, self._on_emergency_stop, queue_size=10,
-                         tcp_nodelay=True)
         self.move_robot = actionlib.ActionServer('move_robot', MoveRobotAction,
                                                  self._goal_move_robot, self._cancel_move_robot,
                                                  auto_start=False)
@@ -689,27 +684,16 @@ class MotionServer(object):
 
     # --- services ------------------------------------------------------------------------
     def _on_halt_all(self, _req):
-        ok, message = self._halt_all('halt_all')
-        return TriggerResponse(success=ok, message=message)
-
-    def _on_emergency_stop(self, msg):
-        """emergency_stop true (latched by whoever pressed it): halt every axis now. Goals are
-        not refused afterwards: the task planner pauses the mission until it is resumed."""
-        if msg.data:
-            self._halt_all('emergency_stop')
-
-    def _halt_all(self, source):
-        """Halt every axis and end the arm and cart goals (aborted, -5); (ok, text)."""
         try:
             self.driver.halt_all()
         except DriverError as exc:
-            rospy.logerr('%s: halting failed: %s', source, exc)
-            return False, 'halt_all failed: %s' % exc
-        for _, action in self._abort_actions(mg.HALTED, 'halted by %s' % source,
+            rospy.logerr('halt_all failed: %s', exc)
+            return TriggerResponse(success=False, message='halt_all failed: %s' % exc)
+        for _, action in self._abort_actions(mg.HALTED, 'halted by halt_all',
                                              ['move_robot', 'move_base']):
             action()
-        rospy.logwarn('%s: every axis halted', source)
-        return True, 'every axis halted'
+        rospy.logwarn('halt_all: every axis halted')
+        return TriggerResponse(success=True, message='every axis halted')
 
     def _on_enable_all(self, _req):
         try:
