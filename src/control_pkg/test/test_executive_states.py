@@ -76,3 +76,21 @@ def test_a_fruit_placed_on_vacuum_stays_picked_and_other_outcomes_ignore_the_fla
     assert [(r.target_id, r.outcome, r.reason) for r in records] == [
         (7, mission_lib.OUTCOME_PICKED, ''), (8, mission_lib.OUTCOME_UNREACHABLE, 'beyond reach')]
     assert context.dropped is None
+
+
+def test_do_error_leaves_a_move_the_emergency_stop_ended_to_do_stop():
+    # the stop's halt can end a move (aborted) before the stop monitor ends the mission: that
+    # is not a fault (no halt here, no record, no fault event); DO_STOP does all of it
+    from control_pkg.executive_states import DoError
+    records, events, halts = [], [], []
+    context = _context(records)
+    context.publish_event = lambda kind, state, detail: events.append(kind)
+    context.halt = lambda: halts.append(1) or (True, 'halted')
+    context.stopping = lambda: True
+    assert DoError(context).execute(None) == 'aborted'
+    assert (records, events, halts) == ([], [], [])
+    assert context.recorder.current is not None             # the fruit is DO_STOP's to record
+    context.stopping = lambda: False
+    context.last_error = 'drive fault on right_boom'
+    assert DoError(context).execute(None) == 'aborted'
+    assert events == ['fault'] and halts == [1] and [r.outcome for r in records] == ['failed']

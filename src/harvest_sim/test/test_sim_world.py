@@ -133,6 +133,21 @@ def test_stamped_cut_waits_for_joints_as_recent():
     assert _nothing(world.flush_cuts(now=11.6, max_wait=0.5))
 
 
+def test_cut_between_sparse_joint_states_is_judged_with_the_one_before():
+    # on a busy machine at 20x joint states come a simulated second apart: the next one after
+    # the close shows the left arm already on its way home; the shear closed where it stood
+    world = make_world()
+    f1 = world.fruits[1]
+    peduncle = f1.peduncle.copy()
+    there, _ = arm('left', peduncle)
+    world.set_joints(there, stamp=30.0)
+    assert world.shear_cut(stamp=30.05) == []           # queued until a later joint state
+    away, _ = arm('left', (0.4, 0.3, 1.0))
+    events = world.set_joints(away, stamp=31.0)
+    assert f1.state == w.DROPPED and not f1.attached, events     # cut (no suction): it fell
+    assert np.allclose(f1.cut_point, peduncle, atol=1e-6)
+
+
 def test_late_stamped_cut_is_judged_where_the_arm_was_at_its_stamp():
     # on a busy machine the shear close can reach the world after joint states in which the
     # left arm already moves away: it must cut where the shear was when it closed

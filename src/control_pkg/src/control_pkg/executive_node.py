@@ -226,6 +226,7 @@ class TaskPlanner(object):
                                       publish_event=self.publish_event,
                                       publish_record=self.publish_record, halt=self.halt_axes,
                                       checkpoint=self.checkpoints)
+        self.context.stopping = self.estop.is_set
         self.resuming = resumed is not None
         if resumed is not None:
             self._prepare_resume(resumed)

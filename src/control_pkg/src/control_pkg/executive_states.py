@@ -47,6 +47,9 @@ class MissionContext(object):
         self.resume = None
         self.resume_snapshot = None
         self.skip = {}
+        # true while an emergency stop is requested (executive_node: its stop event): a goal the
+        # stop's halt aborted is the stop's, not a fault (no retry, no DO_ERROR)
+        self.stopping = lambda: False
         # why the fruit being placed was not on the cup when the valve closed over the box (set
         # by that SUCTION_OFF's result, executive_goals.dropped_on_the_way): its record, picked
         # by the graph's outcome, is then `dropped` (EndFruit, ResumeRecord); None otherwise
@@ -190,12 +193,14 @@ class HarvestActionState(SimpleActionState):
         outcome = 'aborted'
         for attempt in range(self._retries + 1):
             outcome = SimpleActionState.execute(self, ud)
-            if outcome != 'aborted' or self.preempt_requested() or rospy.is_shutdown():
+            if outcome != 'aborted' or self.preempt_requested() or rospy.is_shutdown() or \
+                    self._context.stopping():
                 break
             if attempt < self._retries:
                 rospy.logwarn('%s: %s aborted (%s), retry %d of %d', self._label, self._action_name,
                               _status_text(self) or 'no reason given', attempt + 1, self._retries)
-        if outcome == 'aborted' and len(self._context.recorder.errors) == errors_before:
+        if outcome == 'aborted' and len(self._context.recorder.errors) == errors_before and \
+                not self._context.stopping():
             reason = _status_text(self) or ('%s did not succeed (server missing, timed out or aborted)'
                                             % self._action_name)
             self._context.fail('%s: %s' % (self._label, reason))
@@ -357,6 +362,11 @@ class DoError(smach.State):
         self._context = context
 
     def execute(self, ud):
+        if self._context.stopping():
+            # the emergency stop's halt ended a move before the stop monitor ended the mission:
+            # DO_STOP halts, records the fruit and pauses; this is not a fault
+            rospy.loginfo('executive: an emergency stop is under way: DO_ERROR leaves it to DO_STOP')
+            return 'aborted'
         reason = self._context.last_error or 'unknown fault'
         ok, message = self._context.halt()
         rospy.logerr('executive: DO_ERROR: %s; axes halted: %s (%s)', reason, ok, message)

@@ -19,10 +19,14 @@ the suction valve and the shear:
   seals nothing until the valve has been closed again.
 
 Joint states and shear closes arrive on different topics, so their order is not guaranteed: a
-stamped shear close is judged with the first joint state stamped at or after it: from a short
-history (`TOOL_HISTORY`) when newer joint states came first (on a busy machine a late shear close
-would otherwise be judged where the arm went next), by waiting when none has come yet, or with
-the latest one after `flush_cuts` gives up waiting.
+stamped shear close waits until a joint state stamped at or after it has come (then none older
+is still on its way), and is judged with the last joint state stamped at or before it, from a
+short history (`TOOL_HISTORY`): where the arm was when the shear closed. (The first joint state
+after it was used before; on a busy machine joint states come a simulated second apart at 20x,
+and that one showed the left arm already on its way home: the shear "closed on nothing" 40-118
+mm from the peduncle it had been servoed to, and the box move tore the fruit off.) A close with
+no joint state before it in the history is judged with the latest pose, as one that
+`flush_cuts` gives up waiting for.
 """
 
 import collections
@@ -111,8 +115,8 @@ class World(object):
         due = [t for t in self.pending_cuts if stamp is None or t <= stamp]
         if due:
             self.pending_cuts = [t for t in self.pending_cuts if t not in due]
-            for _ in due:
-                events += self._cut()
+            for t in due:
+                events += self._cut_at(t)
         return events
 
     def _move_held(self):
@@ -167,20 +171,27 @@ class World(object):
         return ['vacuum lost: %s dropped off the suction sleeve to the floor' % f.id]
 
     def shear_cut(self, stamp=None):
-        """One shear close. Applied now if stamp is None; with a stamp, judged with the first
-        joint state stamped at or after it: from the recent history when newer joint states
-        are already here (a message can come late on a busy machine, when the arm has moved
-        on), else queued until that joint state comes (see flush_cuts)."""
+        """One shear close. Applied now if stamp is None; with a stamp, judged with the last
+        joint state stamped at or before it once one stamped at or after it is here (a message
+        can come late on a busy machine, when the arm has moved on), else queued until then
+        (see flush_cuts)."""
         if stamp is None:
             return self._cut()
         stamp = float(stamp)
         if self.joint_stamp is not None and self.joint_stamp >= stamp:
-            for t, tip, suction in self.tool_history:
-                if t >= stamp:
-                    return self._cut(tip, suction)
-            return self._cut()            # older than the history: the latest pose
+            return self._cut_at(stamp)
         self.pending_cuts.append(stamp)
         return []
+
+    def _cut_at(self, stamp):
+        """A shear close at `stamp`, where the tools were at the last joint state stamped at or
+        before it (the latest pose when the history holds none that old)."""
+        before = None
+        for t, tip, suction in self.tool_history:
+            if t > stamp:
+                break
+            before = (tip, suction)
+        return self._cut(*before) if before is not None else self._cut()
 
     def flush_cuts(self, now, max_wait):
         """Apply queued shear closes older than max_wait (s) with the latest joints."""
