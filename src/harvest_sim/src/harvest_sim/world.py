@@ -20,12 +20,14 @@ the suction valve and the shear:
 
 Joint states and shear closes arrive on different topics, so their order is not guaranteed: a
 stamped shear close waits until a joint state stamped at or after it has come (then none older
-is still on its way), and is judged with the last joint state stamped at or before it, from a
-short history (`TOOL_HISTORY`): where the arm was when the shear closed. (The first joint state
-after it was used before; on a busy machine joint states come a simulated second apart at 20x,
-and that one showed the left arm already on its way home: the shear "closed on nothing" 40-118
-mm from the peduncle it had been servoed to, and the box move tore the fruit off.) A close with
-no joint state before it in the history is judged with the latest pose, as one that
+is still on its way). The stroke is taken to span the two joint states around its stamp, from a
+short history (`TOOL_HISTORY`): it cuts where the shear stood at the last one at or before the
+stamp if a peduncle is within reach there, else where it stood at the first one after. (Only the
+first one after was used before; on a busy machine joint states come a simulated second apart
+at 20x, and that one showed the left arm already on its way home: the shear "closed on nothing"
+40-118 mm from the peduncle it had been servoed to, and the box move tore the fruit off. Only
+the one before misses a close commanded right after a move, between two joint states.) A close
+with no joint state before it in the history is judged with the latest pose, as one that
 `flush_cuts` gives up waiting for.
 """
 
@@ -184,14 +186,33 @@ class World(object):
         return []
 
     def _cut_at(self, stamp):
-        """A shear close at `stamp`, where the tools were at the last joint state stamped at or
-        before it (the latest pose when the history holds none that old)."""
-        before = None
+        """A shear close at `stamp`: where the tools were at the last joint state stamped at or
+        before it when that reaches a peduncle, else at the first one after it (the latest pose
+        when the history holds none before it)."""
+        before = after = None
         for t, tip, suction in self.tool_history:
-            if t > stamp:
+            if t <= stamp:
+                before = (tip, suction)
+            else:
+                after = (tip, suction)
                 break
-            before = (tip, suction)
-        return self._cut(*before) if before is not None else self._cut()
+        if before is None:
+            return self._cut()
+        if after is None or self._reaches_peduncle(*before):
+            return self._cut(*before)
+        return self._cut(*after)
+
+    def _reaches_peduncle(self, tip, suction):
+        """A fruit's peduncle (the held one where `suction` puts it) within the shear's reach."""
+        for f in self.fruits:
+            if f.state not in (HANGING, HELD):
+                continue
+            centre = f.position
+            if f is self.held:
+                centre = suction[:3, 3] + suction[:3, :3].dot(self.hold_offset)
+            if np.linalg.norm(tip - scn.default_peduncle(centre, f.radius)) <= self.cut_tolerance:
+                return True
+        return False
 
     def flush_cuts(self, now, max_wait):
         """Apply queued shear closes older than max_wait (s) with the latest joints."""

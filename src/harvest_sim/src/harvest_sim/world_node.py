@@ -5,8 +5,9 @@ Owns the ground truth (harvest_sim.world.World) of the scenario and publishes it
 Subscriptions (relative; the node runs in namespace ``sim``):
   joint_states (sensor_msgs/JointState)  ground-truth joints from the simulated controller
   suction_valve (std_msgs/Bool)          suction valve open/closed
-  shear_cut (std_msgs/Header)            one per shear close (applied with the first joint
-                                         state stamped at or after it, or after 0.5 s)
+  shear_cut (std_msgs/Header)            one per shear close (judged once a joint state
+                                         stamped at or after it has come, or after 0.5 s:
+                                         World.shear_cut)
 Publications:
   suction_sealed (std_msgs/Bool, latched)        true while the suction holds a fruit
   fruits (harvest_sim/SimFruitArray, latched)    every fruit, on change and at ~publish_rate
