@@ -7,6 +7,7 @@ finished a few fruit and an arm is moving, then grabs both screens with ImageMag
 
 Usage (workspace built and sourced; Debian packages xvfb and imagemagick):
   python3 src/visualization_pkg/tools/doc_screenshots.py [--out docs] [--fruit 2] [--time-scale 2]
+  (--console --prefix console_: rviz embedded in the dashboard and the shell dock, as on the robot)
 """
 import argparse
 import os
@@ -94,6 +95,9 @@ def main():
                         "pipelined; '' = executive.yaml's)")
     parser.add_argument('--prefix', default='', help='file name prefix, e.g. pipelined_ -> '
                         'pipelined_rviz.png, pipelined_dashboard.png')
+    parser.add_argument('--console', action='store_true',
+                        help='the dashboard with rviz embedded as a dock and the shell enabled '
+                        '(the whole operator console of the paper\'s Figure 10)')
     args = parser.parse_args()
     h = Harness(args)
     print('[screenshots] logs in %s' % h.logdir)
@@ -113,7 +117,9 @@ def main():
         h.start('rviz', ['roslaunch', 'visualization_pkg', 'rviz.launch'], rviz_display)
         h.start('dashboard', ['roslaunch', 'visualization_pkg', 'dashboard.launch', 'restore:=false',
                               'geometry:=1800x1050',
-                              'settings_file:=' + os.path.join(h.logdir, 'dashboard.ini')], dash_display)
+                              'settings_file:=' + os.path.join(h.logdir, 'dashboard.ini')] +
+                (['embedded_rviz:=true', 'enable_shell:=true'] if args.console else []),
+                dash_display)
         import rospy
         from std_msgs.msg import String
         from harvest_msgs.msg import MoveRobotActionGoal, PickRecord
