@@ -232,8 +232,10 @@ class RegionSplitter(object):
                 # edges and the border with the neighbour, which no circle follows; its
                 # visible part still lies inside the fruit, so the smallest circle around
                 # that part stands for it
-                (ex, ey), er = cv2.minEnclosingCircle(
-                    np.column_stack([pxs, pys]).astype(np.float32))
+                # (the circle around a point set is the one around its convex hull, and the
+                # hull has a few dozen points where the part has thousands)
+                (ex, ey), er = cv2.minEnclosingCircle(cv2.convexHull(
+                    np.column_stack([pxs, pys]).astype(np.float32)))
                 if r_min <= er <= r_max:
                     cx, cy, r, inside = float(ex), float(ey), float(er), 1.0
             if r > r_max:
@@ -281,35 +283,46 @@ class RegionSplitter(object):
         with the parts' fits, as hypothesis B does, would keep them apart.) Greedy, best first."""
         p = self.params
         kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
-        cands = [(part, circle, pr) for (part, circle), pr in zip(candidates, peak_rs)]
+        # each part gets a serial number; a pair's verdict does not change when another pair
+        # is joined, so it is computed once (a cluster of n parts has n^2 / 2 pairs per round)
+        cands = [(part, circle, pr, k) for k, ((part, circle), pr) in
+                 enumerate(zip(candidates, peak_rs))]
+        serial = len(cands)
+        verdicts = {}        # (serial i, serial j) -> (residual, union, fit) or None
+
+        def verdict(a, b):
+            (xi, yi, ri), (xj, yj, rj) = a[1][:3], b[1][:3]
+            if math.hypot(xi - xj, yi - yj) > 0.9 * (ri + rj):
+                return None       # two whole fruit side by side, not halves of one
+            if not np.any((cv2.dilate(a[0].astype(np.uint8), kernel) > 0) & b[0]):
+                return None
+            union = a[0] | b[0]
+            fit = self._fit_part(union, outer, max(a[2], b[2]))
+            if fit is None or fit[3] * fit[2] > p['join_residual_px']:
+                return None
+            pys, pxs = np.nonzero(union)
+            cx, cy, r = fit[:3]
+            if np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
+                return None
+            return fit[3], union, fit
+
         while len(cands) > 1:
             best = None
             for i in range(len(cands)):
-                grown = None
                 for j in range(i + 1, len(cands)):
-                    (xi, yi, ri), (xj, yj, rj) = cands[i][1][:3], cands[j][1][:3]
-                    if math.hypot(xi - xj, yi - yj) > 0.9 * (ri + rj):
-                        continue      # two whole fruit side by side, not halves of one
-                    if grown is None:
-                        grown = cv2.dilate(cands[i][0].astype(np.uint8), kernel) > 0
-                    if not np.any(grown & cands[j][0]):
-                        continue
-                    union = cands[i][0] | cands[j][0]
-                    fit = self._fit_part(union, outer, max(cands[i][2], cands[j][2]))
-                    if fit is None or fit[3] * fit[2] > p['join_residual_px']:
-                        continue
-                    pys, pxs = np.nonzero(union)
-                    cx, cy, r = fit[:3]
-                    if np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
-                        continue
-                    if best is None or fit[3] < best[0]:
-                        best = (fit[3], i, j, union, fit)
+                    key = (cands[i][3], cands[j][3])
+                    if key not in verdicts:
+                        verdicts[key] = verdict(cands[i], cands[j])
+                    found = verdicts[key]
+                    if found is not None and (best is None or found[0] < best[0]):
+                        best = (found[0], i, j, found[1], found[2])
             if best is None:
                 break
             _, i, j, union, fit = best
-            joined = (union, fit, max(cands[i][2], cands[j][2]))
+            joined = (union, fit, max(cands[i][2], cands[j][2]), serial)
+            serial += 1
             cands = [c for k, c in enumerate(cands) if k not in (i, j)] + [joined]
-        return [(part, circle) for part, circle, _ in cands]
+        return [(c[0], c[1]) for c in cands]
 
     @staticmethod
     def _fit_part(part, outer, peak_r, r_high=3.0):
