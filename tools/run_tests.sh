@@ -41,6 +41,14 @@ fi
 # package's pytest target (pure logic, no master, no fixed ports), a second make process.
 # A test skipped for something tools/setup.sh installs fails here (harvest_test_utils.strict_deps).
 export HARVEST_STRICT_DEPS=1
+# The rostests' simulated controllers and farm server listen on fixed ports of their .test files
+# (15000-15099, 18431) plus HARVEST_TEST_PORT_OFFSET, a multiple of 100 picked here with every one
+# of those ports free, so two suites (two clones, or CI beside a developer) run side by side.
+if [ -z "${HARVEST_TEST_PORT_OFFSET:-}" ]; then
+  HARVEST_TEST_PORT_OFFSET="$(python -c 'from harvest_test_utils.net import free_port_offset; print(free_port_offset())')" || exit 1
+fi
+export HARVEST_TEST_PORT_OFFSET
+echo "test ports: offset $HARVEST_TEST_PORT_OFFSET (controllers 15000-15099, farm server 18431, plus the offset)"
 TARGETS="$(make -C build help 2>/dev/null | sed -n 's/^\.\.\. \(run_tests_[a-z0-9_-]*\)$/\1/p')"
 ROSTEST_TARGETS=()    # run_tests_<package>_<type> of the other packages, <type> != pytest
 MISSION_TARGETS=()    # the same of harvest_bringup

@@ -1,10 +1,12 @@
 """harvest_test_utils.net: free loopback ports and wait_for."""
 
+import random
 import socket
 
 import pytest
 
-from harvest_test_utils.net import LOOPBACK, free_port, wait_for
+from harvest_test_utils.net import (LOOPBACK, free_port, free_port_offset, port_is_free,
+                                     wait_for)
 
 
 def test_free_port_can_be_listened_on():
@@ -22,3 +24,39 @@ def test_wait_for_returns_the_first_true_value():
 def test_wait_for_names_what_it_waited_for():
     with pytest.raises(AssertionError, match='the farm server'):
         wait_for(lambda: False, 0.0, 'the farm server', interval=0.0)
+
+
+def test_port_is_free_sees_a_listening_server():
+    with socket.socket() as s:
+        s.bind((LOOPBACK, 0))
+        s.listen(1)
+        assert not port_is_free(s.getsockname()[1])
+    assert port_is_free(free_port())
+
+
+def test_free_port_offset_skips_an_offset_whose_ports_are_taken():
+    # the seeded order's first offset is occupied by a listening server: the next one is chosen
+    rng_seed = 7
+    first = free_port_offset(ports=(20000,), step=100, rng=random.Random(rng_seed))
+    holder = socket.socket()
+    try:
+        holder.bind((LOOPBACK, 20000 + first))
+        holder.listen(1)
+    except OSError:
+        pass             # taken by somebody else since: taken all the same
+    try:
+        second = free_port_offset(ports=(20000,), step=100, rng=random.Random(rng_seed))
+        assert second != first and second % 100 == 0
+        assert port_is_free(20000 + second)
+    finally:
+        holder.close()
+
+
+def test_free_port_offset_stays_below_the_ephemeral_range():
+    offset = free_port_offset(ports=(15000, 15099, 18431), rng=random.Random(3))
+    assert offset % 100 == 0 and 18431 + offset < 32768
+
+
+def test_free_port_offset_fails_clearly_when_nothing_is_free():
+    with pytest.raises(RuntimeError, match='no offset'):
+        free_port_offset(ports=(32700,), step=100)

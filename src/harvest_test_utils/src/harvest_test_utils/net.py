@@ -27,3 +27,33 @@ def wait_for(predicate, timeout, what, interval=0.05):
         if time.monotonic() > deadline:
             raise AssertionError('timed out after %.0f s waiting for %s' % (timeout, what))
         time.sleep(interval)
+
+
+#: the fixed ports of the rostest files (simulated controllers, the farm server), to which
+#: HARVEST_TEST_PORT_OFFSET is added (`$(eval N + int(optenv('HARVEST_TEST_PORT_OFFSET', '0')))`)
+TEST_PORTS = tuple(range(15000, 15100)) + (18431,)
+
+
+def port_is_free(port, host=LOOPBACK):
+    """True when a TCP server could listen on ``port`` now."""
+    with socket.socket() as s:
+        try:
+            s.bind((host, port))
+        except OSError:
+            return False
+        return True
+
+
+def free_port_offset(ports=TEST_PORTS, step=100, limit=400, rng=None):
+    """A multiple of ``step`` that, added to each of ``ports``, gives only free ports and stays
+    below the ephemeral range (32768): one per test suite, so two suites run side by side.
+    Raises RuntimeError when none of ``limit`` tries is free."""
+    import random
+    rng = rng or random.Random()
+    highest = max(ports)
+    choices = [k * step for k in range(0, (32768 - highest) // step)]
+    rng.shuffle(choices)
+    for offset in choices[:limit]:
+        if all(port_is_free(p + offset) for p in ports):
+            return offset
+    raise RuntimeError('no offset of %d-%d with every test port free' % (min(ports), highest))
