@@ -94,3 +94,46 @@ def test_do_error_leaves_a_move_the_emergency_stop_ended_to_do_stop():
     context.last_error = 'drive fault on right_boom'
     assert DoError(context).execute(None) == 'aborted'
     assert events == ['fault'] and halts == [1] and [r.outcome for r in records] == ['failed']
+
+
+def _action_state(monkeypatch, context, results):
+    """A HarvestActionState (retries 2) whose goals end with the given (outcome, status text)
+    in turn, with no action server: the base class's execute is replaced."""
+    from control_pkg import executive_states as es
+    sent = []
+
+    def execute(state, ud):
+        outcome, text = results[len(sent)]
+        sent.append(outcome)
+        state.goal_status_text = text
+        return outcome
+    monkeypatch.setattr(es.SimpleActionState, 'execute', execute)
+    state = es.HarvestActionState.__new__(es.HarvestActionState)
+    smach.State.__init__(state, outcomes=['succeeded', 'aborted', 'preempted'])
+    state._context, state._label, state._action_name = context, 'DO_MOVE_ROBOT', 'move_robot'
+    state._retries, state._gate = 2, None
+    return state, sent
+
+
+def test_a_move_the_stop_topic_halted_takes_the_stop_here_too(monkeypatch):
+    # motion_server heard /emergency_stop first and aborted the move with its stop text: the
+    # executive takes the stop itself (no retry, no fault), whichever message came first
+    from motion_pkg.motion_goals import ESTOP_HALT_TEXT
+    context = _context([])
+    stops = []
+    context.request_stop = stops.append
+    context.stopping = lambda: bool(stops)
+    state, sent = _action_state(monkeypatch, context, [('aborted', ESTOP_HALT_TEXT)] * 3)
+    assert state.execute(None) == 'aborted'
+    assert sent == ['aborted'] and len(stops) == 1 and ESTOP_HALT_TEXT in stops[0]
+    assert context.recorder.errors == [] and not context.last_error
+
+
+def test_a_move_aborted_for_another_reason_is_retried_and_then_a_fault(monkeypatch):
+    context = _context([])
+    stops = []
+    context.request_stop = stops.append
+    state, sent = _action_state(monkeypatch, context, [('aborted', 'drive fault on right_boom')] * 3)
+    assert state.execute(None) == 'aborted'
+    assert sent == ['aborted'] * 3 and stops == []
+    assert 'drive fault on right_boom' in context.last_error

@@ -227,6 +227,7 @@ class TaskPlanner(object):
                                       publish_record=self.publish_record, halt=self.halt_axes,
                                       checkpoint=self.checkpoints)
         self.context.stopping = self.estop.is_set
+        self.context.request_stop = self.request_stop
         self.resuming = resumed is not None
         if resumed is not None:
             self._prepare_resume(resumed)

@@ -16,6 +16,7 @@ import threading
 import rospy
 
 from control_pkg.smach_compat import smach, SimpleActionState
+from motion_pkg.motion_goals import ESTOP_HALT_TEXT
 from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import mission as mission_lib
 
@@ -50,6 +51,10 @@ class MissionContext(object):
         # true while an emergency stop is requested (executive_node: its stop event): a goal the
         # stop's halt aborted is the stop's, not a fault (no retry, no DO_ERROR)
         self.stopping = lambda: False
+        # called with a source when a goal comes back aborted by the emergency stop topic's
+        # halt (motion_server heard the stop before this node did): the stop is then taken
+        # here as well (executive_node: request_stop), so the abort is the stop's, not a fault
+        self.request_stop = lambda source: None
         # why the fruit being placed was not on the cup when the valve closed over the box (set
         # by that SUCTION_OFF's result, executive_goals.dropped_on_the_way): its record, picked
         # by the graph's outcome, is then `dropped` (EndFruit, ResumeRecord); None otherwise
@@ -193,6 +198,9 @@ class HarvestActionState(SimpleActionState):
         outcome = 'aborted'
         for attempt in range(self._retries + 1):
             outcome = SimpleActionState.execute(self, ud)
+            if outcome == 'aborted' and ESTOP_HALT_TEXT in _status_text(self):
+                self._context.request_stop('%s (%s: %s)' % (self._label, self._action_name,
+                                                            ESTOP_HALT_TEXT))
             if outcome != 'aborted' or self.preempt_requested() or rospy.is_shutdown() or \
                     self._context.stopping():
                 break

@@ -24,6 +24,11 @@ CONNECTION_LOST = -4
 HALTED = -5
 REFUSED = -6
 
+#: the text of a move goal aborted because the emergency stop topic halted the axes; the
+#: executive (control_pkg) takes a goal aborted with it for the stop itself, even when the
+#: topic reached motion_server before it reached the executive
+ESTOP_HALT_TEXT = 'halted by the emergency stop'
+
 ARM_JOINTS = ('lift', 'boom', 'forearm')
 LINEAR_KINDS = ('cart', 'lift')
 

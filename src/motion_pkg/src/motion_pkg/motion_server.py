@@ -10,6 +10,9 @@ the same time (a waist goal belongs to both arms; ``motion_goals.ArmGoals``); ``
 
 Publications:  joint_states (sensor_msgs/JointState), motion_status (diagnostic_msgs/
                DiagnosticStatus, latched, on change), /diagnostics (diagnostic_updater)
+Subscriptions: emergency_stop (std_msgs/Bool): every true halts every axis and aborts the move
+               goals with motion_goals.ESTOP_HALT_TEXT, so a stop halts the robot even while
+               the executive is down (it also halts through halt_all, and pauses the mission)
 Services:      halt_all, enable_all (std_srvs/Trigger)
 Actions:       move_robot (harvest_msgs/MoveRobot), move_base (harvest_msgs/MoveBase),
                end_effector (harvest_msgs/EndEffector)
@@ -32,6 +35,7 @@ from harvest_msgs.msg import (EndEffectorAction, EndEffectorFeedback, EndEffecto
                               MoveBaseResult, MoveRobotAction, MoveRobotFeedback,
                               MoveRobotResult)
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Bool
 from std_srvs.srv import Trigger, TriggerResponse
 
 from motion_pkg import motion_goals as mg
@@ -130,6 +134,7 @@ class MotionServer(object):
         self._setup_diagnostics()
         self._publish_status()
         rospy.Service('halt_all', Trigger, self._on_halt_all)
+        rospy.Subscriber('emergency_stop', Bool, self._on_emergency_stop, queue_size=10)
         rospy.Service('enable_all', Trigger, self._on_enable_all)
         self.move_robot = actionlib.ActionServer('move_robot', MoveRobotAction,
                                                  self._goal_move_robot, self._cancel_move_robot,
@@ -683,17 +688,29 @@ class MotionServer(object):
             handle.set_aborted(result, outcome.text)
 
     # --- services ------------------------------------------------------------------------
-    def _on_halt_all(self, _req):
+    def _halt_everything(self, text):
+        """Halt every axis, then abort the move goals with `text`; (ok, message)."""
         try:
             self.driver.halt_all()
         except DriverError as exc:
-            rospy.logerr('halt_all failed: %s', exc)
-            return TriggerResponse(success=False, message='halt_all failed: %s' % exc)
-        for _, action in self._abort_actions(mg.HALTED, 'halted by halt_all',
-                                             ['move_robot', 'move_base']):
+            return False, 'halt failed: %s' % exc
+        for _, action in self._abort_actions(mg.HALTED, text, ['move_robot', 'move_base']):
             action()
-        rospy.logwarn('halt_all: every axis halted')
-        return TriggerResponse(success=True, message='every axis halted')
+        return True, 'every axis halted'
+
+    def _on_halt_all(self, _req):
+        ok, message = self._halt_everything('halted by halt_all')
+        if ok:
+            rospy.logwarn('halt_all: every axis halted')
+        else:
+            rospy.logerr('halt_all: %s', message)
+        return TriggerResponse(success=ok, message=message)
+
+    def _on_emergency_stop(self, msg):
+        if not msg.data:
+            return          # released: the executive's resume moves the robot again
+        ok, message = self._halt_everything(mg.ESTOP_HALT_TEXT)
+        (rospy.logwarn if ok else rospy.logerr)('emergency stop topic: %s', message)
 
     def _on_enable_all(self, _req):
         try:
