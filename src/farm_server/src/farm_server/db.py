@@ -5,9 +5,7 @@ One code path for both: the only dialect-specific piece is the ``INSERT ... ON C
 set-up (WAL, busy timeout, ``BEGIN IMMEDIATE`` for write transactions so that two concurrent
 uploads queue on the database lock instead of failing on a stale read snapshot).
 
-Schema versions: table ``schema_migrations`` holds one row per applied migration. ``MIGRATIONS``
-is an ordered list of (version, description, function(connection)); opening a database applies
-the missing ones, each in its own transaction. Never edit a released migration: append one.
+Schema versions and migrations are in ``db_schema`` (re-exported here).
 """
 
 import hashlib
@@ -21,10 +19,14 @@ import sqlalchemy as sa
 from sqlalchemy.dialects import postgresql as pg_dialect
 from sqlalchemy.dialects import sqlite as sqlite_dialect
 
+# Re-exported: ``farm_server.db`` keeps every name it had before the split.
+from farm_server.db_schema import (METADATA, MIGRATIONS, RECORD_TABLES,  # noqa: F401
+                                   SCHEMA_VERSION, TABLES, SchemaVersionError, _migration_1,
+                                   _migrations_table, _tables_v1)
+
 __all__ = ['FarmDB', 'MIGRATIONS', 'SCHEMA_VERSION', 'RECORD_TABLES', 'hash_token',
            'default_db_url']
 
-RECORD_TABLES = ('missions', 'observations', 'pick_records', 'events')
 # SQLite before 3.32 allows 999 bound parameters per statement (Ubuntu 20.04 ships 3.31).
 _IN_CHUNK = 400
 
@@ -38,115 +40,6 @@ def hash_token(token):
     return hashlib.sha256(token.encode('utf-8')).hexdigest()
 
 
-# ------------------------------------------------------------------------------- schema
-
-def _tables_v1(metadata):
-    """Version 1 of the schema. Frozen: later versions change it through new migrations."""
-    robots = sa.Table(
-        'robots', metadata,
-        sa.Column('name', sa.String(64), primary_key=True),
-        sa.Column('token_sha256', sa.String(64), nullable=False, unique=True),
-        sa.Column('created', sa.Float, nullable=False),
-        sa.Column('last_upload', sa.Float),
-        sa.Column('uploads', sa.Integer, nullable=False, server_default='0'),
-        sa.Column('rows_received', sa.Integer, nullable=False, server_default='0'),
-    )
-    missions = sa.Table(
-        'missions', metadata,
-        sa.Column('id', sa.String(32), primary_key=True),
-        sa.Column('robot', sa.String(64), nullable=False),
-        sa.Column('created', sa.Float, nullable=False),
-        sa.Column('mission_id', sa.String(200), nullable=False),
-        sa.Column('started', sa.Float),
-        sa.Column('ended', sa.Float),
-        sa.Column('site', sa.String(200), nullable=False),
-        sa.Column('summary', sa.Text, nullable=False),
-        sa.Column('revision', sa.Integer, nullable=False),
-        sa.Column('received', sa.Float, nullable=False),
-        sa.Index('missions_by_robot', 'robot', 'mission_id'),
-    )
-    observations = sa.Table(
-        'observations', metadata,
-        sa.Column('id', sa.String(32), primary_key=True),
-        sa.Column('robot', sa.String(64), nullable=False),
-        sa.Column('created', sa.Float, nullable=False),
-        sa.Column('mission_id', sa.String(200), nullable=False),
-        sa.Column('picking_point', sa.Integer, nullable=False),
-        sa.Column('track_position', sa.Float, nullable=False),
-        sa.Column('detection_id', sa.Integer, nullable=False),
-        sa.Column('x', sa.Float), sa.Column('y', sa.Float), sa.Column('z', sa.Float),
-        sa.Column('frame_id', sa.String(100), nullable=False),
-        sa.Column('radius', sa.Float, nullable=False),
-        sa.Column('ripeness_stage', sa.Integer, nullable=False),
-        sa.Column('ripeness_score', sa.Float, nullable=False),
-        sa.Column('pickable', sa.Boolean, nullable=False),
-        sa.Column('pick_order', sa.Integer, nullable=False),
-        sa.Column('stamp', sa.Float, nullable=False),
-        sa.Column('image_id', sa.String(200), nullable=False),
-        sa.Column('received', sa.Float, nullable=False),
-        sa.Index('observations_by_mission', 'robot', 'mission_id', 'picking_point'),
-    )
-    pick_records = sa.Table(
-        'pick_records', metadata,
-        sa.Column('id', sa.String(32), primary_key=True),
-        sa.Column('robot', sa.String(64), nullable=False),
-        sa.Column('created', sa.Float, nullable=False),
-        sa.Column('mission_id', sa.String(200), nullable=False),
-        sa.Column('picking_point', sa.Integer, nullable=False),
-        sa.Column('target_id', sa.Integer, nullable=False),
-        sa.Column('x', sa.Float, nullable=False),
-        sa.Column('y', sa.Float, nullable=False),
-        sa.Column('z', sa.Float, nullable=False),
-        sa.Column('frame_id', sa.String(100), nullable=False),
-        sa.Column('outcome', sa.Integer, nullable=False),
-        sa.Column('reason', sa.Text, nullable=False),
-        sa.Column('state_names', sa.Text, nullable=False),       # JSON array
-        sa.Column('state_durations', sa.Text, nullable=False),   # JSON array
-        sa.Column('cycle_time', sa.Float, nullable=False),
-        sa.Column('stamp', sa.Float, nullable=False),
-        sa.Column('received', sa.Float, nullable=False),
-        sa.Index('pick_records_by_mission', 'robot', 'mission_id'),
-    )
-    events = sa.Table(
-        'events', metadata,
-        sa.Column('id', sa.String(32), primary_key=True),
-        sa.Column('robot', sa.String(64), nullable=False),
-        sa.Column('created', sa.Float, nullable=False),
-        sa.Column('mission_id', sa.String(200), nullable=False),
-        sa.Column('stamp', sa.Float, nullable=False),
-        sa.Column('kind', sa.String(64), nullable=False),
-        sa.Column('state', sa.String(64), nullable=False),
-        sa.Column('detail', sa.Text, nullable=False),
-        sa.Column('received', sa.Float, nullable=False),
-        sa.Index('events_by_mission', 'robot', 'mission_id'),
-    )
-    return dict(robots=robots, missions=missions, observations=observations,
-                pick_records=pick_records, events=events)
-
-
-def _migration_1(conn):
-    metadata = sa.MetaData()
-    _tables_v1(metadata)
-    metadata.create_all(conn)
-
-
-MIGRATIONS = (
-    (1, 'robots, missions, observations, pick records, events', _migration_1),
-)
-SCHEMA_VERSION = MIGRATIONS[-1][0]
-
-# The current schema, for queries (equal to the result of all migrations).
-METADATA = sa.MetaData()
-TABLES = _tables_v1(METADATA)
-
-_migrations_table = sa.Table(
-    'schema_migrations', sa.MetaData(),
-    sa.Column('version', sa.Integer, primary_key=True, autoincrement=False),
-    sa.Column('description', sa.Text, nullable=False),
-    sa.Column('applied', sa.Float, nullable=False),
-)
-
-
 def new_token():
     """A random robot token (256 bits, URL-safe) that never starts with '-', so that it can
     be given on a command line (``--token TOKEN``) without being taken for an option."""
@@ -154,10 +47,6 @@ def new_token():
         token = secrets.token_urlsafe(32)
         if not token.startswith('-'):
             return token
-
-
-class SchemaVersionError(RuntimeError):
-    """The database was migrated by a newer farm server than this one."""
 
 
 # ------------------------------------------------------------------------------- database
