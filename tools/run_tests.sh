@@ -28,6 +28,23 @@ else
   cat "$RESULTS/vermin.txt"; FAILED_STEPS+=(vermin)
 fi
 
+echo "=== every Python file compiles (a syntax error in a script no test imports stays hidden otherwise)"
+if python - "${PYFILES[@]}" >"$RESULTS/compile.txt" 2>&1 <<'PYEOF'
+import sys
+bad = 0
+for name in sys.argv[1:]:
+    try:
+        with open(name, 'rb') as f:
+            compile(f.read(), name, 'exec')
+    except (SyntaxError, ValueError) as exc:
+        bad += 1
+        print('%s: %s' % (name, exc))
+print('%d of %d files do not compile' % (bad, len(sys.argv) - 1) if bad else
+      'all %d files compile' % (len(sys.argv) - 1))
+sys.exit(1 if bad else 0)
+PYEOF
+then cat "$RESULTS/compile.txt"; else cat "$RESULTS/compile.txt"; FAILED_STEPS+=(compile); fi
+
 if [ "${HARVEST_ONLY_LINT:-0}" = "1" ]; then
   [ ${#FAILED_STEPS[@]} -eq 0 ] && exit 0 || { echo "FAILED: ${FAILED_STEPS[*]}"; exit 1; }
 fi

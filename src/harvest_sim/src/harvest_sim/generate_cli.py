@@ -39,7 +39,7 @@ def parse_args(argv):
     p.add_argument('-o', '--output', help='output file (default: stdout)')
     p.add_argument('--out-dir', default=default_scenarios_dir(),
                    help='directory for --all-presets (default: the package scenarios/)')
-    p.add_argument('--robot-config', default=None, help='robot.yaml (default: harvest_description's)')
+    p.add_argument('--robot-config', default=None, help="robot.yaml (default: harvest_description's)")
     return p.parse_args(argv)
 
 
