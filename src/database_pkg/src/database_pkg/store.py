@@ -14,218 +14,27 @@ is FULL: one fsync of the WAL per commit. Our write rate is a few transactions p
 the cost is small (see benchmark/bench_store.py).
 
 Atomicity: each public write method is one transaction. Input is validated completely before
-anything is written, and any error inside the transaction rolls it back, so bad input raises
-``ValueError`` and leaves the file unchanged.
+anything is written (``database_pkg.rows``), and any error inside the transaction rolls it back,
+so bad input raises ``ValueError`` and leaves the file unchanged.
 
-Schema versions: ``PRAGMA user_version`` holds the number of migrations applied. Opening an older
-file applies the missing migrations in order, each in its own transaction; opening a file written
-by a newer version raises ``SchemaVersionError`` without touching the file. Released migrations
-must never be edited: add a new one at the end of ``MIGRATIONS``.
+Schema versions and migrations: ``database_pkg.schema`` (its names are importable from here too).
 """
 
-import json
-import math
-import numbers
 import os
 import sqlite3
 import threading
 import time
 import uuid
 
+from database_pkg.rows import (_int, _real, _text, checkpoint_dict, checkpoint_row, event_row,
+                               observation_dict, observation_row, pick_record_dict,
+                               pick_record_row)
+from database_pkg.schema import (LOCAL_TABLES, MIGRATIONS, OUTCOMES, PHASES,  # noqa: F401
+                                 RIPENESS_STAGES, SCHEMA_VERSION, SYNCHRONOUS_MODES, TABLES,
+                                 SchemaVersionError, StoreError)
+
 __all__ = ['Store', 'StoreError', 'SchemaVersionError', 'MIGRATIONS', 'SCHEMA_VERSION',
            'OUTCOMES', 'RIPENESS_STAGES', 'PHASES']
-
-# PickRecord.OUTCOME_* and Tomato.STAGE_* (harvest_msgs), repeated here so this module needs no ROS.
-OUTCOMES = (0, 1, 2, 3, 4)
-RIPENESS_STAGES = (0, 1, 2, 3)
-
-SYNCHRONOUS_MODES = ('NORMAL', 'FULL', 'EXTRA')
-TABLES = ('missions', 'observations', 'pick_records', 'events')     # the uploader's outbox
-LOCAL_TABLES = ('checkpoints', )                                       # never uploaded
-PHASES = ('', 'approach', 'suction', 'pull', 'cut', 'place', 'placed')  # Checkpoint.phase
-
-# Ordered migrations: (version reached, description, statements). Never edit a released entry.
-MIGRATIONS = (
-    (1, 'missions, observations, pick records and events', (
-        """CREATE TABLE missions (
-            id TEXT PRIMARY KEY,
-            created REAL NOT NULL,
-            mission_id TEXT NOT NULL UNIQUE,
-            started REAL,
-            ended REAL,
-            site TEXT NOT NULL DEFAULT '',
-            summary TEXT NOT NULL DEFAULT ''
-        )""",
-        """CREATE TABLE observations (
-            id TEXT PRIMARY KEY,
-            created REAL NOT NULL,
-            mission_id TEXT NOT NULL REFERENCES missions(mission_id),
-            picking_point INTEGER NOT NULL,
-            track_position REAL NOT NULL,
-            detection_id INTEGER NOT NULL,
-            x REAL, y REAL, z REAL,
-            frame_id TEXT NOT NULL,
-            radius REAL NOT NULL,
-            ripeness_stage INTEGER NOT NULL,
-            ripeness_score REAL NOT NULL,
-            pickable INTEGER NOT NULL,
-            pick_order INTEGER NOT NULL,
-            stamp REAL NOT NULL,
-            image_id TEXT NOT NULL
-        )""",
-        """CREATE TABLE pick_records (
-            id TEXT PRIMARY KEY,
-            created REAL NOT NULL,
-            mission_id TEXT NOT NULL REFERENCES missions(mission_id),
-            picking_point INTEGER NOT NULL,
-            target_id INTEGER NOT NULL,
-            x REAL NOT NULL, y REAL NOT NULL, z REAL NOT NULL,
-            frame_id TEXT NOT NULL,
-            outcome INTEGER NOT NULL,
-            reason TEXT NOT NULL,
-            state_names TEXT NOT NULL,
-            state_durations TEXT NOT NULL,
-            cycle_time REAL NOT NULL,
-            stamp REAL NOT NULL
-        )""",
-        """CREATE TABLE events (
-            id TEXT PRIMARY KEY,
-            created REAL NOT NULL,
-            mission_id TEXT NOT NULL REFERENCES missions(mission_id),
-            stamp REAL NOT NULL,
-            kind TEXT NOT NULL,
-            state TEXT NOT NULL,
-            detail TEXT NOT NULL
-        )""",
-    )),
-    (2, 'uploaded flag for the network uploader; per-mission indices', (
-        "ALTER TABLE missions ADD COLUMN uploaded INTEGER NOT NULL DEFAULT 0",
-        "ALTER TABLE observations ADD COLUMN uploaded INTEGER NOT NULL DEFAULT 0",
-        "ALTER TABLE pick_records ADD COLUMN uploaded INTEGER NOT NULL DEFAULT 0",
-        "ALTER TABLE events ADD COLUMN uploaded INTEGER NOT NULL DEFAULT 0",
-        "CREATE INDEX observations_by_mission ON observations(mission_id, picking_point)",
-        "CREATE INDEX pick_records_by_mission ON pick_records(mission_id, stamp)",
-        "CREATE INDEX events_by_mission ON events(mission_id, stamp)",
-    )),
-    # network_pkg's outbox: rows with uploaded = 0 are the queue (partial indices keep finding
-    # and counting them cheap whatever the size of the uploaded history). Missions are the only
-    # rows that change after insert: a change of started/ended/summary/site queues the mission
-    # again and bumps its revision, so the uploader only marks uploaded the revision it sent and
-    # the server keeps the highest revision.
-    (3, 'outbox: pending-row indices; a changed mission is queued again with a new revision', (
-        "ALTER TABLE missions ADD COLUMN revision INTEGER NOT NULL DEFAULT 0",
-        "CREATE INDEX missions_pending ON missions(uploaded) WHERE uploaded = 0",
-        "CREATE INDEX observations_pending ON observations(uploaded) WHERE uploaded = 0",
-        "CREATE INDEX pick_records_pending ON pick_records(uploaded) WHERE uploaded = 0",
-        "CREATE INDEX events_pending ON events(uploaded) WHERE uploaded = 0",
-        """CREATE TRIGGER missions_changed AFTER UPDATE OF started, ended, summary, site
-            ON missions
-            WHEN OLD.started IS NOT NEW.started OR OLD.ended IS NOT NEW.ended
-                 OR OLD.summary IS NOT NEW.summary OR OLD.site IS NOT NEW.site
-            BEGIN
-                UPDATE missions SET uploaded = 0, revision = OLD.revision + 1
-                WHERE id = NEW.id;
-            END""",
-    )),
-    # control_pkg's executive: where a restarted task planner continues (one row per mission,
-    # replaced by every newer checkpoint; local only, not in the uploader's outbox)
-    (4, 'checkpoints of the executive (crash-safe continuation)', (
-        """CREATE TABLE checkpoints (
-            id TEXT PRIMARY KEY,
-            created REAL NOT NULL,
-            updated REAL NOT NULL,
-            mission_id TEXT NOT NULL UNIQUE REFERENCES missions(mission_id),
-            robot TEXT NOT NULL,
-            stamp REAL NOT NULL,
-            points TEXT NOT NULL,
-            point_index INTEGER NOT NULL,
-            picking_point INTEGER NOT NULL,
-            targets_done TEXT NOT NULL,
-            target_id INTEGER NOT NULL,
-            target_x REAL, target_y REAL, target_z REAL,
-            phase TEXT NOT NULL,
-            holding INTEGER NOT NULL,
-            finished INTEGER NOT NULL,
-            outcome TEXT NOT NULL
-        )""",
-        "CREATE INDEX checkpoints_unfinished ON checkpoints(robot, updated) WHERE finished = 0",
-    )),
-    # a pick record or event stored once however often it comes: the executive sends a
-    # (re)started database_node every record and event of its mission again (nothing published
-    # while the store was down is lost), and a file may hold copies from before (the first kept)
-    (5, 'a pick record or event is stored once (the executive replays them to a new store)', (
-        """DELETE FROM pick_records WHERE rowid NOT IN (SELECT MIN(rowid) FROM pick_records
-            GROUP BY mission_id, picking_point, target_id, stamp)""",
-        """CREATE UNIQUE INDEX pick_records_once
-            ON pick_records(mission_id, picking_point, target_id, stamp)""",
-        """DELETE FROM events WHERE rowid NOT IN (SELECT MIN(rowid) FROM events
-            GROUP BY mission_id, stamp, kind, state, detail)""",
-        "CREATE UNIQUE INDEX events_once ON events(mission_id, stamp, kind, state, detail)",
-    )),
-)
-SCHEMA_VERSION = MIGRATIONS[-1][0]
-
-
-class StoreError(RuntimeError):
-    """The database file cannot be opened or used (not SQLite, unreadable, no WAL...)."""
-
-
-class SchemaVersionError(StoreError):
-    """The file was written by a newer schema version than this code knows."""
-
-
-# ---------------------------------------------------------------- validation helpers
-
-def _field(what, data, key):
-    try:
-        return data[key]
-    except (KeyError, TypeError):
-        raise ValueError('%s: missing field %r' % (what, key))
-
-
-def _text(what, key, value, allow_empty=True):
-    if not isinstance(value, str):
-        raise ValueError('%s: %s must be a string, got %r' % (what, key, value))
-    if not allow_empty and not value:
-        raise ValueError('%s: %s must not be empty' % (what, key))
-    return value
-
-
-def _int(what, key, value):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-        raise ValueError('%s: %s must be an integer, got %r' % (what, key, value))
-    return int(value)
-
-
-def _real(what, key, value, minimum=None, maximum=None):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError('%s: %s must be a number, got %r' % (what, key, value))
-    value = float(value)
-    if not math.isfinite(value):
-        raise ValueError('%s: %s must be finite, got %r' % (what, key, value))
-    if minimum is not None and value < minimum:
-        raise ValueError('%s: %s must be >= %g, got %g' % (what, key, minimum, value))
-    if maximum is not None and value > maximum:
-        raise ValueError('%s: %s must be <= %g, got %g' % (what, key, maximum, value))
-    return value
-
-
-def _position(what, value, allow_none):
-    if value is None:
-        if allow_none:
-            return None, None, None
-        raise ValueError('%s: position is required' % what)
-    try:
-        values = list(value)
-    except TypeError:
-        raise ValueError('%s: position must be a sequence of 3 numbers, got %r' % (what, value))
-    if len(values) != 3:
-        raise ValueError('%s: position must have 3 components, got %d' % (what, len(values)))
-    return tuple(_real(what, 'position.' + axis, v) for axis, v in zip('xyz', values))
-
-
-def _mission_id(what, data):
-    return _text(what, 'mission_id', _field(what, data, 'mission_id'), allow_empty=False)
 
 
 class Store(object):
@@ -397,35 +206,6 @@ class Store(object):
             cur.execute('UPDATE missions SET ended = ?, summary = ? WHERE mission_id = ?',
                         (ended, summary, mission_id))
 
-    @staticmethod
-    def _check_observation(obs):
-        what = 'observation'
-        pickable = _field(what, obs, 'pickable')
-        if not isinstance(pickable, (bool, int)) or isinstance(pickable, float):
-            raise ValueError('%s: pickable must be a bool, got %r' % (what, pickable))
-        pickable = bool(pickable)
-        # A fruit without a valid 3D point (None) can only be a non-pickable one.
-        x, y, z = _position(what, _field(what, obs, 'position'), allow_none=not pickable)
-        stage = _int(what, 'ripeness_stage', _field(what, obs, 'ripeness_stage'))
-        if stage not in RIPENESS_STAGES:
-            raise ValueError('%s: ripeness_stage must be one of %s, got %d'
-                             % (what, RIPENESS_STAGES, stage))
-        pick_order = _int(what, 'pick_order', _field(what, obs, 'pick_order'))
-        if pick_order < -1:
-            raise ValueError('%s: pick_order must be >= -1, got %d' % (what, pick_order))
-        return (
-            _int(what, 'detection_id', _field(what, obs, 'detection_id')),
-            x, y, z,
-            _text(what, 'frame_id', _field(what, obs, 'frame_id'), allow_empty=x is None),
-            _real(what, 'radius', _field(what, obs, 'radius'), minimum=0.0),
-            stage,
-            _real(what, 'ripeness_score', _field(what, obs, 'ripeness_score')),
-            int(pickable),
-            pick_order,
-            _real(what, 'stamp', _field(what, obs, 'stamp'), minimum=0.0),
-            _text(what, 'image_id', _field(what, obs, 'image_id')),
-        )
-
     def add_observations(self, mission_id, picking_point, track_position, observations,
                          site=''):
         """Store the tomatoes seen at one picking point, all or none. Returns their ids.
@@ -442,7 +222,7 @@ class Store(object):
         rows = []
         for index, obs in enumerate(observations):
             try:
-                rows.append(self._check_observation(obs))
+                rows.append(observation_row(obs))
             except ValueError as e:
                 raise ValueError('tomato %d of %d: %s' % (index, len(observations), e))
         stamps = [row[-2] for row in rows if row[-2] > 0.0]
@@ -463,35 +243,8 @@ class Store(object):
         """Store one PickRecord (a dict, see harvest_msgs/PickRecord) once: the same record
         (mission, picking point, target, stamp) again changes nothing. Returns its id."""
         what = 'pick record'
-        mission_id = _mission_id(what, record)
-        x, y, z = _position(what, _field(what, record, 'position'), allow_none=False)
-        outcome = _int(what, 'outcome', _field(what, record, 'outcome'))
-        if outcome not in OUTCOMES:
-            raise ValueError('%s: outcome must be one of %s, got %d' % (what, OUTCOMES, outcome))
-        names = _field(what, record, 'state_names')
-        durations = _field(what, record, 'state_durations')
-        if isinstance(names, str) or isinstance(durations, str):
-            raise ValueError('%s: state_names and state_durations must be lists' % what)
-        names = [_text(what, 'state_names[%d]' % i, n) for i, n in enumerate(names)]
-        durations = [_real(what, 'state_durations[%d]' % i, d, minimum=0.0)
-                     for i, d in enumerate(durations)]
-        if len(names) != len(durations):
-            raise ValueError('%s: %d state names but %d state durations'
-                             % (what, len(names), len(durations)))
-        stamp = _real(what, 'stamp', _field(what, record, 'stamp'), minimum=0.0)
-        row = (
-            mission_id,
-            _int(what, 'picking_point', _field(what, record, 'picking_point')),
-            _int(what, 'target_id', _field(what, record, 'target_id')),
-            x, y, z,
-            _text(what, 'frame_id', _field(what, record, 'frame_id'), allow_empty=False),
-            outcome,
-            _text(what, 'reason', _field(what, record, 'reason')),
-            json.dumps(names),
-            json.dumps(durations),
-            _real(what, 'cycle_time', _field(what, record, 'cycle_time'), minimum=0.0),
-            stamp,
-        )
+        row = pick_record_row(record)
+        mission_id, stamp = row[0], row[-1]
         row_id = self._new_id()
         with self._transaction() as cur:
             self._ensure_mission(cur, mission_id, stamp, _text(what, 'site', site))
@@ -511,11 +264,7 @@ class Store(object):
         """Store one MissionEvent (a dict) once (the same mission, stamp, kind, state and detail
         again changes nothing). kind 'summary' also ends the mission. Returns its id."""
         what = 'event'
-        mission_id = _mission_id(what, event)
-        stamp = _real(what, 'stamp', _field(what, event, 'stamp'), minimum=0.0)
-        kind = _text(what, 'kind', _field(what, event, 'kind'), allow_empty=False)
-        state = _text(what, 'state', _field(what, event, 'state'))
-        detail = _text(what, 'detail', _field(what, event, 'detail'))
+        mission_id, stamp, kind, state, detail = event_row(event)
         row_id = self._new_id()
         with self._transaction() as cur:
             self._ensure_mission(cur, mission_id, stamp, _text(what, 'site', site))
@@ -542,39 +291,7 @@ class Store(object):
         ignored. Returns True when it was stored.
         """
         what = 'checkpoint'
-        mission_id = _mission_id(what, checkpoint)
-        robot = _text(what, 'robot', _field(what, checkpoint, 'robot'))
-        stamp = _real(what, 'stamp', _field(what, checkpoint, 'stamp'), minimum=0.0)
-        points = _field(what, checkpoint, 'points')
-        if isinstance(points, str):
-            raise ValueError('%s: points must be a list' % what)
-        points = [_int(what, 'points[%d]' % i, p) for i, p in enumerate(points)]
-        point_index = _int(what, 'point_index', _field(what, checkpoint, 'point_index'))
-        if point_index < -1 or point_index > len(points):
-            raise ValueError('%s: point_index must be in [-1, %d], got %d'
-                             % (what, len(points), point_index))
-        done = []
-        for i, item in enumerate(_field(what, checkpoint, 'targets_done')):
-            try:
-                target, position = item
-            except (TypeError, ValueError):
-                raise ValueError('%s: targets_done[%d] must be (target_id, (x, y, z))' % (what, i))
-            done.append([_int(what, 'targets_done[%d]' % i, target),
-                         list(_position(what, position, allow_none=False))])
-        phase = _text(what, 'phase', _field(what, checkpoint, 'phase'))
-        if phase not in PHASES:
-            raise ValueError('%s: phase must be one of %s, got %r' % (what, PHASES, phase))
-        holding = _field(what, checkpoint, 'holding')
-        finished = _field(what, checkpoint, 'finished')
-        for key, value in (('holding', holding), ('finished', finished)):
-            if not isinstance(value, bool):
-                raise ValueError('%s: %s must be a bool, got %r' % (what, key, value))
-        tx, ty, tz = _position(what, _field(what, checkpoint, 'target_position'), allow_none=True)
-        row = (robot, stamp, json.dumps(points), point_index,
-               _int(what, 'picking_point', _field(what, checkpoint, 'picking_point')),
-               json.dumps(done), _int(what, 'target_id', _field(what, checkpoint, 'target_id')),
-               tx, ty, tz, phase, int(holding), int(finished),
-               _text(what, 'outcome', _field(what, checkpoint, 'outcome')))
+        mission_id, stamp, row = checkpoint_row(checkpoint)
         with self._transaction() as cur:
             self._ensure_mission(cur, mission_id, stamp, _text(what, 'site', site))
             now = self._clock()
@@ -626,19 +343,11 @@ class Store(object):
         else:
             rows = self._select('observations', 'mission_id = ? AND picking_point = ?',
                                 (mission_id, picking_point), 'rowid')
-        for row in rows:
-            xyz = (row.pop('x'), row.pop('y'), row.pop('z'))
-            row['position'] = None if xyz[0] is None else xyz
-            row['pickable'] = bool(row['pickable'])
-        return rows
+        return [observation_dict(row) for row in rows]
 
     def pick_records(self, mission_id):
         rows = self._select('pick_records', 'mission_id = ?', (mission_id,), 'stamp, rowid')
-        for row in rows:
-            row['position'] = (row.pop('x'), row.pop('y'), row.pop('z'))
-            row['state_names'] = json.loads(row['state_names'])
-            row['state_durations'] = json.loads(row['state_durations'])
-        return rows
+        return [pick_record_dict(row) for row in rows]
 
     def events(self, mission_id):
         return self._select('events', 'mission_id = ?', (mission_id,), 'stamp, rowid')
@@ -659,23 +368,13 @@ class Store(object):
     def checkpoint(self, mission_id):
         """The checkpoint of a mission (a dict, see put_checkpoint), or None."""
         rows = self._select('checkpoints', 'mission_id = ?', (mission_id,), 'rowid')
-        return self._checkpoint_dict(rows[0]) if rows else None
+        return checkpoint_dict(rows[0]) if rows else None
 
     def latest_unfinished_checkpoint(self, robot=''):
         """The unfinished checkpoint of ``robot`` written last, or None."""
         rows = self._select('checkpoints', 'finished = 0 AND robot = ?', (robot,),
                             'updated DESC, rowid DESC LIMIT 1')
-        return self._checkpoint_dict(rows[0]) if rows else None
-
-    @staticmethod
-    def _checkpoint_dict(row):
-        row['points'] = json.loads(row['points'])
-        row['targets_done'] = [(d[0], tuple(d[1])) for d in json.loads(row['targets_done'])]
-        xyz = (row.pop('target_x'), row.pop('target_y'), row.pop('target_z'))
-        row['target_position'] = None if xyz[0] is None else xyz
-        row['holding'] = bool(row['holding'])
-        row['finished'] = bool(row['finished'])
-        return row
+        return checkpoint_dict(rows[0]) if rows else None
 
     def row_counts(self, tables=TABLES):
         """Rows per table (the outbox's TABLES unless given, e.g. TABLES + LOCAL_TABLES)."""
