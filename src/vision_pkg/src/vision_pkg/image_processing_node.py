@@ -31,48 +31,42 @@ Parameters (defaults in code and config/image_processing.yaml)
   diagnostics; 0: frames come on demand, no rate check), ~hand_expected_rate (10 Hz; 0 idem),
   ~trigger_period (1.0 s)
 """
-import math
 import threading
 
 import actionlib
 import message_filters
-import cv2
-import numpy as np
 import rospy
 import tf2_geometry_msgs  # noqa: F401  registers PointStamped with tf2
 import tf2_ros
-import diagnostic_updater
 from cv_bridge import CvBridge, CvBridgeError
 from geometry_msgs.msg import PointStamped
 from std_msgs.msg import Empty
 from harvest_msgs.msg import (ImageProcessingAction, ImageProcessingGoal, ImageProcessingResult,
-                              ServoFeature, Tomato, TomatoArray, TomatoScanAction,
-                              TomatoScanResult)
+                              TomatoScanAction, TomatoScanResult)
 from sensor_msgs.msg import CameraInfo, Image, PointCloud2
-from visualization_msgs.msg import Marker, MarkerArray
+from visualization_msgs.msg import MarkerArray
 
-from vision_pkg import annotate, localisation, names, ordering
+from vision_pkg import image_processing_goals as goals
+from vision_pkg import localisation, names
 from vision_pkg.detection import DEFAULTS as DETECTOR_DEFAULTS
 from vision_pkg.detection import TomatoDetector
+from vision_pkg.hand_camera import HandCamera
+from vision_pkg.image_processing_goals import Aborted, Cancelled, RunningGoal
+from vision_pkg.image_processing_outputs import ImageProcessingOutputs
+# names that moved out of this module, still importable from it
+from vision_pkg.image_processing_goals import stamp_id as _stamp_id  # noqa: F401
+from vision_pkg.image_processing_outputs import RATE_TOLERANCE  # noqa: F401
+from vision_pkg.image_processing_outputs import NoRateCheck as _NoRateCheck  # noqa: F401
 
+_Goal = RunningGoal
 BUFF_SIZE = 16 * 1024 * 1024
 #: how many recent right images and clouds the synchronizer keeps to pair them by stamp
 IMAGE_HISTORY = 8
 #: wall seconds between checks of a data wait's deadline and cancellation when no data comes
 #: (data, cancellation and shutdown wake the wait at once; the deadline itself is ROS time)
 WAIT_POLL = 0.1
-#: accepted input-rate band for diagnostics, as a fraction of the expected rate
-RATE_TOLERANCE = 0.5
 #: hand camera detector defaults that differ from the stereo ones (640x480, full resolution)
 HAND_DETECTOR_DEFAULTS = {'scale': 1.0, 'min_radius_px': 12.0, 'max_radius_px': 320.0}
-
-
-class Aborted(Exception):
-    """A goal cannot be served; the message goes into the result."""
-
-
-class Cancelled(Exception):
-    """The client cancelled the goal."""
 
 
 def _detector_params(namespace, overrides):
@@ -86,26 +80,10 @@ def _detector_params(namespace, overrides):
     return params
 
 
-def _stamp_id(stamp):
-    return 'stereo_right_%d.%09d' % (stamp.secs, stamp.nsecs)
-
-
-class _NoRateCheck(object):
-    """Stands in for a frequency diagnostic of an input that comes on demand."""
-
-    def tick(self):
-        pass
-
-
-class _Goal(object):
-    """Cancellation flag of one running goal."""
-
-    def __init__(self):
-        self.cancelled = threading.Event()
-
-
-class ImageProcessingNode(object):
-    """See module docstring."""
+class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
+    """See module docstring. SERVO_FEATURE and the hand camera: HandCamera (hand_camera.py);
+    diagnostics, annotated image and markers: ImageProcessingOutputs
+    (image_processing_outputs.py); results: image_processing_goals.py."""
 
     def __init__(self):
         self.target_frame = rospy.get_param('~target_frame', names.BASE_FRAME)
@@ -139,8 +117,8 @@ class ImageProcessingNode(object):
         self._hand_info = None
         self._cache_lock = threading.Lock()
         self._cache = (None, None)     # (stamp, [(detection, location)]) of the last pair
-        self._goals = {}               # goal id -> _Goal, for image_processing
-        self._scan_goal = None         # _Goal of the tomato_scan goal being served
+        self._goals = {}               # goal id -> RunningGoal, for image_processing
+        self._scan_goal = None         # RunningGoal of the tomato_scan goal being served
 
         self._setup_diagnostics()
         self.marker_pub = rospy.Publisher(names.MARKERS, MarkerArray, queue_size=1, latch=True)
@@ -179,23 +157,7 @@ class ImageProcessingNode(object):
         rospy.loginfo('image_processing: action servers %s and %s ready',
                       names.IMAGE_PROCESSING_ACTION, names.TOMATO_SCAN_ACTION)
 
-    # -- set-up -------------------------------------------------------------------------------
-    def _setup_diagnostics(self):
-        self.updater = diagnostic_updater.Updater()
-        self.updater.setHardwareID('image_processing')
-        self._freq = {}
-        for topic, rate_param in ((names.RIGHT_RECT_COLOR, '~expected_rate'),
-                                  (names.POINTS2, '~expected_rate'),
-                                  (names.HAND_IMAGE, '~hand_expected_rate')):
-            rate = float(rospy.get_param(rate_param, 10.0))
-            if rate <= 0.0:          # triggered camera: frames come on demand, no rate to check
-                self._freq[topic] = _NoRateCheck()
-                continue
-            bounds = {'min': rate * (1.0 - RATE_TOLERANCE), 'max': rate * (1.0 + RATE_TOLERANCE)}
-            self._freq[topic] = diagnostic_updater.HeaderlessTopicDiagnostic(
-                topic, self.updater, diagnostic_updater.FrequencyStatusParam(bounds, 0.1, 10))
-        self._diag_timer = rospy.Timer(rospy.Duration(1.0), lambda _e: self.updater.update())
-
+    # -- set-up (diagnostics: image_processing_outputs) ---------------------------------------
     def _start_reconfigure(self):
         try:
             from dynamic_reconfigure.server import Server
@@ -225,7 +187,7 @@ class ImageProcessingNode(object):
         with self._cond:
             self._cond.notify_all()
 
-    # -- inputs -------------------------------------------------------------------------------
+    # -- inputs (the hand camera's: hand_camera) ----------------------------------------------
     def _on_stereo_pair(self, image, cloud):
         with self._cond:
             self._pair = (image, cloud)
@@ -234,16 +196,6 @@ class ImageProcessingNode(object):
     def _on_right_info(self, msg):
         with self._cond:
             self._right_info = msg
-
-    def _on_hand_image(self, msg):
-        self._freq[names.HAND_IMAGE].tick()
-        with self._cond:
-            self._hand_image = msg
-            self._cond.notify_all()
-
-    def _on_hand_info(self, msg):
-        with self._cond:
-            self._hand_info = msg
 
     def _wait(self, ready, goal, what, trigger=None):
         """Block until ready() returns a value (under the lock); Aborted after ~data_timeout of
@@ -281,20 +233,11 @@ class ImageProcessingNode(object):
                           + ' on %s and %s' % (names.RIGHT_RECT_COLOR, names.POINTS2),
                           self.stereo_trigger)
 
-    def _hand_data(self, goal, since):
-        def ready():
-            msg = self._hand_image
-            if msg is None or self._hand_info is None or msg.header.stamp < since:
-                return None
-            return msg, self._hand_info
-        return self._wait(ready, goal, 'hand camera image on %s with camera_info'
-                          % names.HAND_IMAGE, self.hand_trigger)
-
     # -- image_processing action --------------------------------------------------------------
     def _on_goal(self, handle):
         goal = handle.get_goal()
         gid = handle.get_goal_id().id
-        state = _Goal()
+        state = RunningGoal()
         self._goals[gid] = state
         handle.set_accepted()
         arrival = rospy.get_rostime()
@@ -316,13 +259,10 @@ class ImageProcessingNode(object):
             if goal.request == ImageProcessingGoal.SPATIAL_POSITIONING:
                 result.tomatoes = self.spatial_positioning(goal.target_frame, goal.min_ripeness,
                                                            state, arrival)
-                result.message = '%d tomatoes, %d pickable' % (
-                    len(result.tomatoes.tomatoes),
-                    sum(1 for t in result.tomatoes.tomatoes if t.pickable))
+                result.message = goals.positioning_message(result.tomatoes)
             elif goal.request == ImageProcessingGoal.SERVO_FEATURE:
                 result.feature = self.servo_feature(goal.target_hint, state, arrival)
-                result.message = 'target found' if result.feature.found else \
-                    'no tomato in the hand camera image'
+                result.message = goals.servo_message(result.feature)
             else:
                 raise Aborted('unknown request %d (SPATIAL_POSITIONING=0, SERVO_FEATURE=1)'
                               % goal.request)
@@ -344,7 +284,7 @@ class ImageProcessingNode(object):
         if self._scan_goal is not None:
             self._scan_goal.cancelled.set()
         goal = self.scan_server.accept_new_goal()
-        state = _Goal()
+        state = RunningGoal()
         self._scan_goal = state
         worker = threading.Thread(target=self._serve_scan,
                                   args=(goal, state, rospy.get_rostime()), name='tomato_scan')
@@ -361,10 +301,10 @@ class ImageProcessingNode(object):
         result = TomatoScanResult()
         try:
             result.tomatoes = self.spatial_positioning(goal.target_frame, 0.0, state, arrival)
-            result.pickable_count = sum(1 for t in result.tomatoes.tomatoes if t.pickable)
+            result.pickable_count = goals.pickable_count(result.tomatoes)
             result.success = True
-            result.message = 'picking point %d: %d tomatoes, %d pickable' % (
-                goal.picking_point, len(result.tomatoes.tomatoes), result.pickable_count)
+            result.message = goals.scan_message(goal.picking_point, result.tomatoes,
+                                                result.pickable_count)
             outcome = 'succeeded'
         except Cancelled:
             result.message = 'preempted'
@@ -383,14 +323,10 @@ class ImageProcessingNode(object):
             rospy.logwarn_throttle(2.0, 'tomato_scan aborted: %s' % result.message)
             self.scan_server.set_aborted(result, result.message)
 
-    # -- the two requests ---------------------------------------------------------------------
+    # -- the two requests (SERVO_FEATURE: hand_camera) ----------------------------------------
     def spatial_positioning(self, target_frame, min_ripeness, state, arrival):
         """TomatoArray for the next stereo pair (see module docstring)."""
-        if isinstance(min_ripeness, float) and math.isnan(min_ripeness):
-            raise Aborted('min_ripeness is NaN')
-        if min_ripeness > 1.0:
-            raise Aborted('min_ripeness %.3f is above 1 (scores are 0..1)' % min_ripeness)
-        threshold = min_ripeness if min_ripeness > 0.0 else self.min_ripeness
+        threshold = goals.ripeness_threshold(min_ripeness, self.min_ripeness)
         frame = target_frame or self.target_frame
         since = arrival if self.fresh_data else rospy.Time(0)
         image_msg, cloud_msg, info = self._stereo_pair(state, since)
@@ -411,46 +347,18 @@ class ImageProcessingNode(object):
                 ps.header = cloud_msg.header
                 ps.point.x, ps.point.y, ps.point.z = (float(c) for c in loc.centre)
                 point = tf2_geometry_msgs.do_transform_point(ps, transform)
-            plausible = (loc is not None and self.min_fruit_radius <= loc.radius <= self.max_fruit_radius
-                         and ordering.inside_image(det.u, det.v, det.radius_px, image_msg.width,
-                                                   image_msg.height, self.border_margin_px))
+            plausible = goals.plausible_fruit(det, loc, image_msg.width, image_msg.height,
+                                              self.min_fruit_radius, self.max_fruit_radius,
+                                              self.border_margin_px)
             if loc is not None and not plausible:
                 rospy.logdebug('image_processing: detection at (%.0f, %.0f) px, radius %.1f mm, not '
                                'pickable: cut by the image border or not a tomato\'s size', det.u, det.v,
                                loc.radius * 1000.0)
             entries.append((det, loc, point, point is not None and plausible and det.score >= threshold))
-        pickable = [i for i, e in enumerate(entries) if e[3]]
-        order = ordering.picking_order([(entries[i][0].u, entries[i][0].v) for i in pickable],
-                                       self.row_tolerance)
-        ordered = [pickable[k] for k in order]
-        rest = sorted((i for i, e in enumerate(entries) if not e[3]),
-                      key=lambda i: -entries[i][0].score)
-        array = TomatoArray()
-        array.header = image_msg.header
-        array.image_id = _stamp_id(image_msg.header.stamp)
-        width, height = image_msg.width, image_msg.height
-        for rank, index in enumerate(ordered + rest):
-            det, loc, point, is_pickable = entries[index]
-            tomato = Tomato()
-            tomato.id = rank
-            x, y, w, h = det.box(width, height)
-            tomato.box.x_offset, tomato.box.y_offset = x, y
-            tomato.box.width, tomato.box.height = w, h
-            if point is not None:
-                tomato.pick_point = point
-                tomato.radius = loc.radius
-            else:
-                tomato.pick_point.header.frame_id = frame
-                tomato.pick_point.header.stamp = cloud_msg.header.stamp
-                tomato.pick_point.point.x = float('nan')
-                tomato.pick_point.point.y = float('nan')
-                tomato.pick_point.point.z = float('nan')
-            tomato.ripeness_stage = det.stage
-            tomato.ripeness_score = det.score
-            tomato.pickable = is_pickable
-            tomato.pick_order = rank if is_pickable else -1
-            array.tomatoes.append(tomato)
-        self._publish_visuals(array, [entries[i][0] for i in ordered + rest], image_msg, frame)
+        sequence = goals.picking_sequence(entries, self.row_tolerance)
+        array = goals.tomato_array(image_msg.header, image_msg.width, image_msg.height, entries,
+                                   sequence, frame, cloud_msg.header.stamp)
+        self._publish_visuals(array, [entries[i][0] for i in sequence], image_msg, frame)
         return array
 
     def _detect_and_locate(self, image_msg, cloud_msg, info):
@@ -476,118 +384,3 @@ class ImageProcessingNode(object):
         with self._cache_lock:
             self._cache = (stamp, found)
         return found
-
-    def servo_feature(self, hint, state, arrival):
-        """ServoFeature of the tomato nearest to the hint's projection in the hand camera."""
-        since = arrival if self.fresh_data else rospy.Time(0)
-        image_msg, info = self._hand_data(state, since)
-        try:
-            bgr = self.bridge.imgmsg_to_cv2(image_msg, 'bgr8')
-        except CvBridgeError as exc:
-            raise Aborted('cannot convert %s: %s' % (names.HAND_IMAGE, exc))
-        k = np.array(info.K, dtype=np.float64).reshape(3, 3)
-        dist = np.array(info.D, dtype=np.float64) if len(info.D) else np.zeros(5)
-        if k[0, 0] <= 0.0:
-            raise Aborted('%s has no intrinsics (K is zero)' % names.HAND_CAMERA_INFO)
-        feature = ServoFeature()
-        feature.header = image_msg.header
-        detections = self.hand_detector.detect(bgr)
-        hint_cam = None
-        if hint.header.frame_id:
-            values = (hint.point.x, hint.point.y, hint.point.z)
-            if not all(math.isfinite(v) for v in values):
-                raise Aborted('target_hint has a non-finite coordinate')
-            query = PointStamped()
-            query.header.frame_id = hint.header.frame_id
-            query.header.stamp = image_msg.header.stamp
-            query.point = hint.point
-            try:
-                hint_cam = self.tf_buffer.transform(query, image_msg.header.frame_id,
-                                                    rospy.Duration(self.tf_timeout))
-            except (tf2_ros.LookupException, tf2_ros.ConnectivityException,
-                    tf2_ros.ExtrapolationException) as exc:
-                raise Aborted('cannot transform target_hint from %s to %s: %s'
-                              % (hint.header.frame_id, image_msg.header.frame_id, exc))
-        if not detections:
-            return feature
-        centres = [self._undistorted_centre(d, k, dist) for d in detections]
-        if hint_cam is not None and hint_cam.point.z > 0.0:
-            p = np.array([hint_cam.point.x, hint_cam.point.y, hint_cam.point.z])
-            ref, _ = cv2.projectPoints(p.reshape(1, 1, 3), np.zeros(3), np.zeros(3), k, dist)
-            ref = ref.reshape(2)
-            feature.depth = float(hint_cam.point.z)
-        else:
-            ref = np.array([k[0, 2], k[1, 2]])
-        # with a hint the target's centre must lie on the fruit followed (not a neighbour)
-        best = ordering.servo_target([c[:2] for c in centres],
-                                     [d.radius_px for d in detections], ref,
-                                     on_fruit=hint_cam is not None)
-        if best is None:
-            rospy.logwarn_throttle(2.0, 'image_processing: no fruit in the hand image holds the '
-                                   'target\'s projection (%.0f, %.0f); %d others seen'
-                                   % (ref[0], ref[1], len(detections)))
-            return feature
-        u, v, x, y = centres[best]
-        feature.found = True
-        feature.u, feature.v, feature.x, feature.y = u, v, x, y
-        feature.diameter_px = 2.0 * detections[best].radius_px
-        return feature
-
-    @staticmethod
-    def _undistorted_centre(det, k, dist):
-        """(u, v, x, y): projection of the sphere centre (not the silhouette centre)."""
-        pts = cv2.undistortPoints(np.array([[[det.u, det.v]]], dtype=np.float64), k, dist)
-        x, y = pts.reshape(2)
-        fx, fy = k[0, 0], k[1, 1]
-        axis, _ = localisation.sphere_ray(x * fx, y * fy, det.radius_px, fx, fy, 0.0, 0.0)
-        xn, yn = axis[0] / axis[2], axis[1] / axis[2]
-        proj, _ = cv2.projectPoints(np.array([[[xn, yn, 1.0]]]), np.zeros(3), np.zeros(3), k,
-                                    dist)
-        u, v = proj.reshape(2)
-        return float(u), float(v), float(xn), float(yn)
-
-    # -- visual outputs -----------------------------------------------------------------------
-    def _publish_visuals(self, array, detections, image_msg, frame):
-        if self.image_pub.get_num_connections() > 0:
-            bgr = self.bridge.imgmsg_to_cv2(image_msg, 'bgr8')
-            drawn = annotate.annotate(bgr, [(d, t.pick_order)
-                                            for d, t in zip(detections, array.tomatoes)])
-            out = self.bridge.cv2_to_imgmsg(drawn, 'bgr8')
-            out.header = image_msg.header
-            self.image_pub.publish(out)
-        markers = MarkerArray()
-        clear = Marker()
-        clear.action = Marker.DELETEALL
-        markers.markers.append(clear)
-        for tomato in array.tomatoes:
-            if not math.isfinite(tomato.pick_point.point.x):
-                continue
-            r, g, b = annotate.STAGE_RGB[tomato.ripeness_stage]
-            sphere = Marker()
-            sphere.header.frame_id = frame
-            sphere.header.stamp = array.header.stamp
-            sphere.ns = 'tomatoes'
-            sphere.id = tomato.id
-            sphere.type = Marker.SPHERE
-            sphere.action = Marker.ADD
-            sphere.pose.position = tomato.pick_point.point
-            sphere.pose.orientation.w = 1.0
-            sphere.scale.x = sphere.scale.y = sphere.scale.z = 2.0 * max(tomato.radius, 0.005)
-            sphere.color.r, sphere.color.g, sphere.color.b, sphere.color.a = r, g, b, 0.9
-            markers.markers.append(sphere)
-            text = Marker()
-            text.header = sphere.header
-            text.ns = 'pick_order'
-            text.id = tomato.id
-            text.type = Marker.TEXT_VIEW_FACING
-            text.action = Marker.ADD
-            text.pose.position.x = tomato.pick_point.point.x
-            text.pose.position.y = tomato.pick_point.point.y
-            text.pose.position.z = tomato.pick_point.point.z + tomato.radius + 0.02
-            text.pose.orientation.w = 1.0
-            text.scale.z = 0.03
-            text.color.r = text.color.g = text.color.b = text.color.a = 1.0
-            text.text = ('#%d' % (tomato.pick_order + 1)) if tomato.pickable else \
-                '%.2f' % tomato.ripeness_score
-            markers.markers.append(text)
-        self.marker_pub.publish(markers)
