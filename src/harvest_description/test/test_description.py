@@ -40,3 +40,29 @@ def test_a_bad_robot_yaml_stops_the_generator_with_one_line(tmp_path):
 def test_urdf_parses_with_urdfdom():
     out = subprocess.run(['check_urdf', URDF], capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
+
+
+def _with_fruit_radius(radii):
+    import yaml
+    with open(ROBOT_YAML) as f:
+        config = yaml.safe_load(f)
+    config['robot']['arms']['right']['fruit_radius'] = radii
+    return config
+
+
+@pytest.mark.parametrize('radii, problem', [
+    ({'min': 0.03, 'max': 0.02}, 'min 0.03 must be < max 0.02'),
+    ({'min': 0.0, 'max': 0.05}, 'min must be > 0'),
+    ({'min': float('nan'), 'max': 0.05}, 'NaN'),
+    ({'max': 0.05}, 'missing'),
+])
+def test_a_bad_suction_sleeve_fruit_radius_is_named(radii, problem):
+    problems = robot_config.problems(_with_fruit_radius(radii))
+    assert any(field.startswith('robot.arms.right.fruit_radius') and problem in text
+               for field, text in problems), problems
+
+
+def test_the_suction_sleeve_fruit_radius_is_optional():
+    config = _with_fruit_radius(None)
+    del config['robot']['arms']['right']['fruit_radius']
+    assert robot_config.problems(config) == []

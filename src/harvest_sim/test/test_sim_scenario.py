@@ -222,3 +222,17 @@ def test_minimal_file_loads_with_defaults(tmp_path):
     f0 = s.fruits[0]
     assert f0.ripe and f0.stage == 'red' and not f0.reachable
     assert np.allclose(f0.peduncle, [0.5, 0.5, 0.94])
+
+
+def test_a_fruit_outside_the_suction_sleeves_sizes_is_unreachable():
+    # same place, three sizes: the cherry tomato does not seal on the sleeve's lip (robot.yaml
+    # robot.arms.right.fruit_radius), whatever the arms can reach
+    lo, hi = GEOM.fruit_radius['right']
+    s = load('three_targets')
+    f = next(f for f in s.fruits if f.reachable)
+    point = s.track.picking_points[f.picking_point]
+    assert scn.reachability(GEOM, f.position, 0.5 * (lo + hi), point)[0]
+    small = scn.reachability(GEOM, f.position, 0.7 * lo, point)
+    assert small[0] is False and 'suction sleeve' in small[1]
+    large = scn.reachability(GEOM, f.position, 1.1 * hi, point)
+    assert large[0] is False and 'suction sleeve' in large[1]

@@ -196,6 +196,11 @@ class _Checker(object):
                 if section is not None:
                     self.vector3(section, 'base_xyz', 'robot.arms.' + arm)
                     self.number(section, 'base_yaw', 'robot.arms.' + arm)
+                    if 'fruit_radius' in section:
+                        radii = self.limits(section, 'fruit_radius', 'robot.arms.' + arm)
+                        if radii is not None and radii[0] <= 0.0:
+                            self.report('robot.arms.%s.fruit_radius' % arm,
+                                        'min must be > 0, got %s' % _describe(radii[0]))
         lengths = self.mapping(robot, 'link_lengths', p)
         if lengths is not None:
             for key in ('boom', 'forearm', 'tool'):

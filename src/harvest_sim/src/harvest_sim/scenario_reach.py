@@ -15,11 +15,17 @@ from harvest_sim.scenario_model import default_peduncle
 def reachability(geom, position, radius, cart_y, peduncle=None, waist=True):
     """(reachable, reason) of a fruit with the cart at cart_y.
 
+    Size: the fruit's radius within the suction sleeve's range (robot.yaml
+    robot.arms.right.fruit_radius, when given).
     Right arm: suction tcp on the fruit surface facing it (target the centre, standoff radius).
     Left arm: shear tcp on the peduncle, with the right arm at that suction pose.
     waist True: at waist 0 or, if not there, at the smallest waist rotation that serves both
     arms (the robot's kinematics action, RobotGeometry.inverse_waist); False: at waist 0 only.
     """
+    radii = getattr(geom, 'fruit_radius', {}).get('right')
+    if radii is not None and not radii[0] <= radius <= radii[1]:
+        return False, 'suction: a fruit of radius %.0f mm does not fit the suction sleeve ' \
+            '(%.0f-%.0f mm, robot.yaml)' % (radius * 1e3, radii[0] * 1e3, radii[1] * 1e3)
     base = np.array([0.0, cart_y, 0.0])
     c = np.asarray(position, dtype=float) - base
     ped = (default_peduncle(position, radius) if peduncle is None else

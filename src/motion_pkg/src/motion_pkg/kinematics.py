@@ -195,6 +195,10 @@ class RobotGeometry(object):
         self.waist_limits = (float(robot['waist']['min']), float(robot['waist']['max']))
         self.arm_base_xyz = {a: tuple(float(v) for v in robot['arms'][a]['base_xyz']) for a in ARMS}
         self.arm_base_yaw = {a: float(robot['arms'][a]['base_yaw']) for a in ARMS}
+        # (min, max) radius of the fruit an arm's tool takes, None: any (robot.yaml, optional)
+        self.fruit_radius = {a: (float(robot['arms'][a]['fruit_radius']['min']),
+                                 float(robot['arms'][a]['fruit_radius']['max']))
+                             if 'fruit_radius' in robot['arms'][a] else None for a in ARMS}
         lengths = robot['link_lengths']
         self.boom = float(lengths['boom'])
         self.forearm = float(lengths['forearm'])
