@@ -1,7 +1,10 @@
 /**
  * @file visual_servo_cycle_node.h
  * @brief The `visual_servo` action server: the eye-hand coordination loop of the paper's Figure 25
- *        (class VisualServoCycleNode of Figure 26). The control law lives in VisualServoControl.
+ *        (class VisualServoCycleNode of Figure 26). The control law lives in VisualServoControl, the loop's
+ *        settings, geometry and stop policy in visual_servo_cycle.h (ServoSettings is declared there). The
+ *        server side (parameters, goal, loop) is src/visual_servo_cycle_node.cpp, the client side (sub-goals,
+ *        tf, joint_states) src/visual_servo_clients.cpp.
  */
 #ifndef COOPERATION_PKG_VISUAL_SERVO_CYCLE_NODE_H
 #define COOPERATION_PKG_VISUAL_SERVO_CYCLE_NODE_H
@@ -27,29 +30,12 @@
 
 #include "cooperation_pkg/VisualServoConfig.h"
 #include "cooperation_pkg/visual_servo_control.h"
+#include "cooperation_pkg/visual_servo_cycle.h"
 
 namespace cooperation_pkg
 {
-/** Tunables of one servo run (private params, dynamic_reconfigure, goal overrides). */
-struct ServoSettings
-{
-  double gain = 0.5;                  ///< lambda [1/s]
-  double adaptive_gain_at_infinity = 0.0;  ///< > 0 selects vpAdaptiveGain(gain, this, slope)
-  double adaptive_slope_at_zero = 0.0;
-  double dt = 1.0;                    ///< integration time of the velocity per iteration [s]
-  double threshold = 0.002;           ///< stop when the error at the target is below [m]
-  int max_iterations = 15;            ///< control moves before giving up
-  double peduncle_gap = 0.01;         ///< tool centre above the fruit top [m]
-  double default_radius = 0.035;      ///< fruit radius when the goal gives 0 [m]
-  int max_lost = 3;                   ///< consecutive images without the target before aborting
-  double max_step = 0.30;             ///< largest tool displacement per iteration [m]
-  double max_gain_dt = 0.8;           ///< goals with gain * dt above this are rejected (divergence)
-  bool translation_only = true;       ///< solve the law for translations only (SCARA)
-  ServoMode mode = ServoMode::STEP;   ///< step (the paper's, wait for each move) or continuous
-  double continuous_gain = 3.5;       ///< lambda in continuous mode [1/s]
-  double horizon = 0.2;               ///< continuous mode: the velocity is held this long per command [s]
-  int continuous_max_iterations = 150;  ///< continuous mode: commands before giving up
-};
+/** The logger name of the node's messages (ROS_*_NAMED). */
+constexpr char VISUAL_SERVO_LOG[] = "visual_servo";
 
 class VisualServoCycleNode
 {
