@@ -33,7 +33,7 @@ with open(ROBOT_YAML) as _f:
 NON_FINITE = [float('nan'), float('inf'), float('-inf')]
 PROPERTY = settings(deadline=None)          # no timing in these tests
 OPTIONAL = {'robot.waist.height', 'robot.collection_box',
-            'robot.collection_box.right_arm_joints'}
+            'robot.collection_box.right_arm_joints', 'robot.arms.right.fruit_radius'}
 LIMIT_PAIRS = ['robot.track', 'robot.waist', 'robot.joint_limits.lift',
                'robot.joint_limits.boom', 'robot.joint_limits.forearm']
 POSITIVE = (['motion.%s.%s' % (s, k) for s in ('speed', 'acceleration') for k in rc.MOTION_KINDS]
@@ -195,6 +195,17 @@ def test_limits_must_be_ordered(pair, lo, width):
         assert _error(config).field == pair
     flipped = _set(_set(ROBOT, keys + ('min',), lo + width), keys + ('max',), lo)
     assert _error(flipped).field == pair
+
+
+@PROPERTY
+@given(st.floats(-1.0, 1.0, allow_nan=False), st.floats(-1.0, 1.0, allow_nan=False))
+def test_the_suction_sleeve_fruit_radii_must_be_ordered_and_positive(lo, hi):
+    keys = KEYS_BY_PATH['robot.arms.right.fruit_radius']
+    config = _set(_set(ROBOT, keys + ('min',), lo), keys + ('max',), hi)
+    if 0.0 < lo < hi:
+        assert rc.problems(config) == []
+    else:
+        assert _error(config).field.startswith('robot.arms.right.fruit_radius')
 
 
 @PROPERTY
