@@ -10,6 +10,8 @@ Node `task_planner`
               operator has cleared the fault: continue_after_fault)
   Calls:      halt_all (std_srvs/Trigger, motion_pkg) on DO_STOP and DO_ERROR;
               get_checkpoint, get_mission_records (database_pkg) once at start (~resume_unfinished)
+  Master:     looks up `watched_nodes` every `node_watch_period`: a node registered again from a
+              new process (respawned) is a mission event `restart` with the node's name as state
   Publishes:  mission/pick_records (harvest_msgs/PickRecord), mission/events (harvest_msgs/MissionEvent)
               (both sent again in full to a subscriber that connects later: _Replayed),
               mission/checkpoints (harvest_msgs/Checkpoint, latched, synchronous: the progress),
@@ -27,6 +29,7 @@ import threading
 import time
 import warnings
 
+import rosgraph
 import rospy
 import yaml
 from sensor_msgs.msg import JointState
@@ -41,6 +44,7 @@ from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import executive
 from control_pkg.executive_states import MissionContext, clear_preempts
 from control_pkg import mission as mission_lib
+from control_pkg import node_watch
 
 _OUTCOME_CODES = {
     mission_lib.OUTCOME_PICKED: PickRecord.OUTCOME_PICKED,
@@ -154,7 +158,11 @@ def merged_config(overrides, defaults=None):
             isinstance(p, (list, tuple)) and len(p) == 3 and
             all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in p) for p in pulls):
         raise ValueError('right_pulls must be a list of [dx, dy, dz] (finite, m), got %r' % (pulls,))
-    for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait'):
+    watched = cfg.get('watched_nodes', [])
+    if not isinstance(watched, (list, tuple)) or not all(isinstance(n, str) and n for n in watched):
+        raise ValueError('watched_nodes must be a list of node names, got %r' % (watched,))
+    for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait',
+                'node_watch_period'):
         if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
             raise ValueError('%s must be a finite number >= 0 (m), got %r' % (key, cfg[key]))
     if cfg['schedule'] not in mission_lib.SCHEDULES:
@@ -246,6 +254,7 @@ class TaskPlanner(object):
         self._run_lock = threading.Lock()     # ~start and ~resume after a fault
         self._fault_snapshot = None           # the checkpoint DO_ERROR ended the mission at
         rospy.on_shutdown(self.on_shutdown)
+        self._watch_nodes_setup()
         if self.starts > 1:
             self._event_listener.event.wait(float(self.config['checkpoint_wait']))
             plan = self.context.resume
@@ -253,6 +262,31 @@ class TaskPlanner(object):
                 self.starts, self.mission_id if self.resuming else None,
                 plan.why if plan is not None else ''))
         rospy.loginfo('task_planner: mission %s ready', self.mission_id)
+
+    # --- restarts of other nodes ---------------------------------------------------------------
+    def _watch_nodes_setup(self):
+        """Look up `watched_nodes` with the master every `node_watch_period` (ROS time): a node
+        registered again from a new process (respawned) is a mission event `restart`."""
+        names = [rospy.resolve_name(n) for n in self.config['watched_nodes']]
+        self._restarts = node_watch.RestartTracker(names)
+        self._master = rosgraph.Master(rospy.get_name())
+        period = float(self.config['node_watch_period'])
+        self._node_watch_timer = None
+        if period > 0 and names:
+            self._watch_nodes()
+            self._node_watch_timer = rospy.Timer(rospy.Duration(period), self._watch_nodes)
+
+    def _watch_nodes(self, _event=None):
+        uris = {}
+        for name in self._restarts.names:
+            try:
+                uris[name] = self._master.lookupNode(name)
+            except (rosgraph.MasterException, OSError):
+                uris[name] = None           # not running (or not in this launch), or no master
+        for name, old, new in self._restarts.update(uris):
+            detail = node_watch.restart_detail(name, old, new)
+            rospy.logwarn('task_planner: %s', detail)
+            self.publish_event('restart', name, detail)
 
     # --- crash-safe continuation ---------------------------------------------------------------
     def _unfinished_checkpoint(self):

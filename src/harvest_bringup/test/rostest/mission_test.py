@@ -34,6 +34,8 @@ Params:
   ~expect_dropped (int, 0): fruit that fall to the floor (vacuum_loss while carrying): so many
       are DROPPED in the world, recorded `dropped` and counted in the summary; every other ripe
       reachable fruit is collected
+  ~expect_restarts (list of node names, []): each of these nodes (killed by ~faults and respawned)
+      has a mission event `restart` naming it, on mission/events and in the store
 """
 import json
 import math
@@ -45,7 +47,7 @@ import unittest
 import rosgraph
 import rospy
 import rostest
-from harvest_msgs.msg import PickRecord
+from harvest_msgs.msg import MissionEvent, PickRecord
 from harvest_msgs.srv import GetMissionRecords
 from harvest_sim.msg import SimFruit, SimFruitArray
 from harvest_sim.srv import FaultWindow, GetSimSummary, SilenceCamera
@@ -71,6 +73,8 @@ class Watch(object):
         self.active = {}
         self.velocities = None
         self.fruits = None
+        self.restarts = []            # node names of the `restart` events on mission/events
+        rospy.Subscriber('/mission/events', MissionEvent, self._event)
         rospy.Subscriber('/sim/fruits', SimFruitArray, self._set('fruits', lambda m: list(m.fruits)))
         rospy.Subscriber('/mission/summary', String, self._set('summary', lambda m: json.loads(m.data)))
         rospy.Subscriber('/harvest_executive/smach/container_status', SmachContainerStatus, self._status)
@@ -82,6 +86,12 @@ class Watch(object):
                 setattr(self, name, conv(msg))
                 self.cond.notify_all()
         return cb
+
+    def _event(self, msg):
+        if msg.kind == 'restart':
+            with self.cond:
+                self.restarts.append(msg.state)
+                self.cond.notify_all()
 
     def _status(self, msg):
         with self.cond:
@@ -161,6 +171,26 @@ class MissionTest(unittest.TestCase):
             self.check_records_after_fault(s, truth)
         if rospy.get_param('~expect_records', False):
             self.check_records(s, truth)
+        expect_restarts = list(rospy.get_param('~expect_restarts', []))
+        if expect_restarts:
+            self.check_restarts(w, s, expect_restarts)
+
+    def check_restarts(self, w, s, names):
+        """A `restart` event of each node (the task planner sees a respawned node register
+        again within its node_watch_period), published and stored."""
+        self.assertTrue(w.wait(lambda: all(n in w.restarts for n in names), 60.0),
+                        'restart events %s, expected %s' % (w.restarts, names))
+        rospy.wait_for_service('/get_mission_records', timeout=30.0)
+        get = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)
+        stored = []
+        for _ in range(60):              # the store may be a step behind the topic
+            resp = get(mission_id=s['mission_id'])
+            self.assertTrue(resp.success, resp.message)
+            stored = [e.state for e in resp.events if e.kind == 'restart']
+            if all(n in stored for n in names):
+                break
+            rospy.sleep(0.5)
+        self.assertTrue(all(n in stored for n in names), 'stored restart events %s' % stored)
 
     def kill_executive(self, w, label):
         self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == [label], 300.0),
