@@ -170,3 +170,27 @@ def test_late_stamped_cut_is_judged_where_the_arm_was_at_its_stamp():
     # a close older than the kept history is judged with the latest pose
     world.set_joints(away, stamp=20.1 + w.TOOL_HISTORY + 1.0)
     assert _nothing(world.shear_cut(stamp=20.05))
+
+
+def test_a_valve_opened_after_the_move_seals_only_with_a_pose_from_after_it():
+    # the approach to f1 swept past f0; the valve's message (opened at 10.0, once the arm was at
+    # f1) overtook the move's last joint states: the cup seals f1, never the neighbour it passed
+    world = make_world()
+    passing, _ = suction_at(F0)
+    at_target, _ = suction_at(F1)
+    world.set_joints(passing, stamp=9.8)
+    assert world.set_valve(True, stamp=10.0) == [] and not world.sealed
+    world.set_joints(passing, stamp=9.9)               # still in flight from mid-move
+    assert not world.sealed and world.fruits[0].state == w.HANGING
+    events = world.set_joints(at_target, stamp=10.02)
+    assert world.sealed and world.held.id == 'f1', events
+    assert world.fruits[0].state == w.HANGING
+
+
+def test_a_valve_opened_with_the_arm_already_there_seals_at_once():
+    world = make_world()
+    joints, _ = suction_at(F0)
+    world.set_joints(joints, stamp=10.5)
+    assert world.set_valve(True, stamp=10.4) and world.sealed and world.held.id == 'f0'
+    world.set_valve(False)
+    assert world.seal_after is None

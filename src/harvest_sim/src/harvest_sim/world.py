@@ -29,6 +29,12 @@ at 20x, and that one showed the left arm already on its way home: the shear "clo
 the one before misses a close commanded right after a move, between two joint states.) A close
 with no joint state before it in the history is judged with the latest pose, as one that
 `flush_cuts` gives up waiting for.
+
+The valve has the same race: opened once the arm is at the fruit, its message can overtake the
+last joint states of the move. A valve opened with a stamp (world_node: the ROS time it arrived)
+therefore seals only with a joint state stamped at or after it: on a busy machine the cup had
+sealed on a neighbour the approach had swept past (the latest joint state was from mid-move),
+and the pull then tore that fruit off.
 """
 
 import collections
@@ -92,6 +98,7 @@ class World(object):
         self.tool_history = collections.deque()
         self.poses = geom.frame_transforms({})
         self.valve_open = False
+        self.seal_after = None                    # stamp of the valve's opening (see set_valve)
         self.held = None                          # FruitTruth held by suction
         self.vacuum_lost = False                  # lose_vacuum: no seal until the valve closes
         self.hold_offset = None                   # fruit centre in the suction tcp frame
@@ -137,18 +144,27 @@ class World(object):
                 self.state_version += 1
                 events.append('%s torn off its pedicel (pulled more than %.0f mm)'
                               % (self.held.id, self.tear_distance * 1000))
-        elif self.valve_open and not self.vacuum_lost:
+        elif self.valve_open and not self.vacuum_lost and self._pose_after_valve():
             events += self._try_seal()
         return events
 
-    def set_valve(self, is_open):
-        """Suction valve opened (True) or closed (False)."""
+    def _pose_after_valve(self):
+        """True when the tool pose is one the valve's opening may act on: the valve was opened
+        without a stamp, or the latest joint state is stamped at or after its opening."""
+        return self.seal_after is None or (self.joint_stamp is not None and
+                                           self.joint_stamp >= self.seal_after)
+
+    def set_valve(self, is_open, stamp=None):
+        """Suction valve opened (True) or closed (False); `stamp` (s): when it opened. With a
+        stamp the cup seals only once a joint state stamped at or after it is here."""
         is_open = bool(is_open)
         if is_open == self.valve_open:
             return []
         self.valve_open = is_open
         if is_open:
-            return [] if self.vacuum_lost else self._try_seal()
+            self.seal_after = None if stamp is None else float(stamp)
+            return [] if self.vacuum_lost or not self._pose_after_valve() else self._try_seal()
+        self.seal_after = None
         self.vacuum_lost = False
         return self._release()
 

@@ -156,7 +156,8 @@ class SimWorldNode(object):
 
     def _on_valve(self, msg):
         with self._lock:
-            self._log(self.world.set_valve(msg.data))
+            # stamped with its arrival: only joint states stamped since then can seal the cup
+            self._log(self.world.set_valve(msg.data, rospy.get_time()))
         self._publish()
 
     def _on_cut(self, msg):
