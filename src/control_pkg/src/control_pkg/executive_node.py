@@ -164,7 +164,7 @@ def merged_config(overrides, defaults=None):
     for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait',
                 'node_watch_period'):
         if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
-            raise ValueError('%s must be a finite number >= 0 (m), got %r' % (key, cfg[key]))
+            raise ValueError('%s must be a finite number >= 0, got %r' % (key, cfg[key]))
     if cfg['schedule'] not in mission_lib.SCHEDULES:
         raise ValueError('schedule must be one of %s, got %r' % (', '.join(mission_lib.SCHEDULES),
                                                                  cfg['schedule']))

@@ -8,12 +8,25 @@ import functools
 import rospy
 
 from motion_pkg import motion_goals as mg
+from motion_pkg.modbus_driver import DriverError
 
 
 def _internal_error(action, exc):
     """Outcome of a goal that failed on an unexpected error (logged with its traceback)."""
     rospy.logerr('%s goal failed on an internal error: %r', action, exc, exc_info=True)
     return mg.Outcome(False, mg.FAILURE, 'internal error: %s' % exc)
+
+
+def answer(handle, name, result, outcome, preempted=False):
+    """End a goal with `result` and the outcome's text: succeeded, canceled when it was
+    preempted, else aborted (logged)."""
+    if outcome.success:
+        handle.set_succeeded(result, outcome.text)
+    elif preempted:
+        handle.set_canceled(result, outcome.text)
+    else:
+        rospy.logwarn('%s aborted: %s', name, outcome.text)
+        handle.set_aborted(result, outcome.text)
 
 
 class _Active(object):
@@ -33,6 +46,18 @@ class ActiveGoalsMixin(object):
     """Goal bookkeeping of MotionServer (its _lock, _active, _arm_goals, _state, _poll_index)."""
 
     # --- goal bookkeeping ----------------------------------------------------------------
+    def _start_or_answer(self, name, handle, start, finish):
+        """The goal's _Active from start(); a goal it refuses (GoalError, DriverError:
+        INVALID_GOAL) or that fails on an internal error is answered by finish, and None
+        returned: a goal is always answered."""
+        try:
+            return start()
+        except (mg.GoalError, DriverError) as exc:
+            finish(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)), self._state)
+        except Exception as exc:  # noqa: BLE001 - a goal is always answered
+            finish(handle, _internal_error(name, exc), self._state)
+        return None
+
     def _register(self, entry):
         """Make the goal active and poll at once: quick goals end without waiting a period."""
         with self._lock:

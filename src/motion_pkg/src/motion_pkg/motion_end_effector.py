@@ -9,7 +9,7 @@ from harvest_msgs.msg import EndEffectorFeedback, EndEffectorGoal, EndEffectorRe
 
 from motion_pkg import motion_goals as mg
 from motion_pkg.modbus_driver import ConnectionLost, DriverError
-from motion_pkg.motion_active_goals import _Active, _internal_error
+from motion_pkg.motion_active_goals import _Active, answer
 
 
 class EndEffectorMixin(object):
@@ -21,14 +21,10 @@ class EndEffectorMixin(object):
         goal = server.accept_new_goal()
         handle = server.current_goal
         self._take('end_effector')
-        try:
-            entry = self._start_end_effector(handle, goal)
-        except (mg.GoalError, DriverError) as exc:
-            self._finish_end_effector(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)),
-                                      self._state)
-            return
-        except Exception as exc:  # noqa: BLE001 - a goal is always answered
-            self._finish_end_effector(handle, _internal_error('end_effector', exc), self._state)
+        entry = self._start_or_answer('end_effector', handle,
+                                      lambda: self._start_end_effector(handle, goal),
+                                      self._finish_end_effector)
+        if entry is None:
             return
         handle.publish_feedback(EndEffectorFeedback(state=entry.monitor.state_text))
         self._register(entry)
@@ -82,10 +78,4 @@ class EndEffectorMixin(object):
         result = EndEffectorResult(success=outcome.success, message=outcome.text,
                                    vacuum_ok=bool(state is not None and state.vacuum_ok),
                                    released_empty=bool(released_empty))
-        if outcome.success:
-            handle.set_succeeded(result, outcome.text)
-        elif preempted:
-            handle.set_canceled(result, outcome.text)
-        else:
-            rospy.logwarn('end_effector aborted: %s', outcome.text)
-            handle.set_aborted(result, outcome.text)
+        answer(handle, 'end_effector', result, outcome, preempted)

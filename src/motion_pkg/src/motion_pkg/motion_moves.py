@@ -10,7 +10,7 @@ from harvest_msgs.msg import MoveBaseFeedback, MoveBaseResult, MoveRobotFeedback
 
 from motion_pkg import motion_goals as mg
 from motion_pkg.modbus_driver import ConnectionLost, DriverError
-from motion_pkg.motion_active_goals import _Active, _internal_error
+from motion_pkg.motion_active_goals import _Active, _internal_error, answer
 
 
 class AxesMovesMixin(object):
@@ -155,12 +155,7 @@ class AxesMovesMixin(object):
         result = MoveRobotResult(succeed=outcome.code)
         if outcome.success:
             handle.publish_feedback(MoveRobotFeedback(percent_complete=100))
-            handle.set_succeeded(result, outcome.text)
-        elif preempted:
-            handle.set_canceled(result, outcome.text)
-        else:
-            rospy.logwarn('move_robot aborted: %s', outcome.text)
-            handle.set_aborted(result, outcome.text)
+        answer(handle, 'move_robot', result, outcome, preempted)
 
     # --- move_base -----------------------------------------------------------------------
     def picking_points(self):
@@ -173,29 +168,27 @@ class AxesMovesMixin(object):
         goal = server.accept_new_goal()
         handle = server.current_goal
         self._take('move_base')
-        try:
-            points = self.picking_points()
-            if not points:
-                raise mg.GoalError('no picking points: set %s (or ~picking_points)'
-                                   % self.points_param)
-            if not 0 <= goal.picking_point < len(points):
-                raise mg.GoalError('picking point %d does not exist (%d points: 0..%d)'
-                                   % (goal.picking_point, len(points), len(points) - 1))
-            target = float(points[goal.picking_point])
-            if not math.isfinite(target):
-                raise mg.GoalError('picking point %d position is not finite' % goal.picking_point)
-            mg.check_range(self.limits['cart'], target)
-            entry = self._start_axes_move('move_base', handle, ['cart'], [target],
-                                          [self.limits['cart'].speed], self._finish_move_base,
-                                          self._feedback_move_base)
-        except (mg.GoalError, DriverError) as exc:
-            self._finish_move_base(handle, mg.Outcome(False, mg.INVALID_GOAL, str(exc)),
-                                   self._state)
-            return
-        except Exception as exc:  # noqa: BLE001 - a goal is always answered
-            self._finish_move_base(handle, _internal_error('move_base', exc), self._state)
-            return
-        self._register(entry)
+        entry = self._start_or_answer('move_base', handle,
+                                      lambda: self._start_move_base(handle, goal),
+                                      self._finish_move_base)
+        if entry is not None:
+            self._register(entry)
+
+    def _start_move_base(self, handle, goal):
+        points = self.picking_points()
+        if not points:
+            raise mg.GoalError('no picking points: set %s (or ~picking_points)'
+                               % self.points_param)
+        if not 0 <= goal.picking_point < len(points):
+            raise mg.GoalError('picking point %d does not exist (%d points: 0..%d)'
+                               % (goal.picking_point, len(points), len(points) - 1))
+        target = float(points[goal.picking_point])
+        if not math.isfinite(target):
+            raise mg.GoalError('picking point %d position is not finite' % goal.picking_point)
+        mg.check_range(self.limits['cart'], target)
+        return self._start_axes_move('move_base', handle, ['cart'], [target],
+                                     [self.limits['cart'].speed], self._finish_move_base,
+                                     self._feedback_move_base)
 
     def _feedback_move_base(self, handle, monitor, _state):
         if monitor.percent != getattr(monitor, 'sent', None):
@@ -208,10 +201,4 @@ class AxesMovesMixin(object):
         position = state.axes[cart].position if state is not None else float('nan')
         result = MoveBaseResult(success=outcome.success, track_position=position,
                                 message=outcome.text)
-        if outcome.success:
-            handle.set_succeeded(result, outcome.text)
-        elif preempted:
-            handle.set_canceled(result, outcome.text)
-        else:
-            rospy.logwarn('move_base aborted: %s', outcome.text)
-            handle.set_aborted(result, outcome.text)
+        answer(handle, 'move_base', result, outcome, preempted)
