@@ -361,3 +361,39 @@ def test_red_fruit_with_a_leaf_across_its_edge_keeps_its_own_circle():
     assert math.hypot(det.u - u, det.v - v) < 0.1 * r, (det, u, v, r)
     assert det.radius_px == pytest.approx(r, rel=0.1), (det, r)
     assert det.stage == detection.STAGE_RED
+
+
+def test_pale_red_grades_pink_and_saturated_red_grades_red():
+    # the colour chart's pink is a light, pale red: the same red hue at low saturation is not
+    # ripe (a hand in the shade, saturation 120-130, graded "red" before)
+    det = TomatoDetector()
+    deep = cv2.cvtColor(np.uint8([[[3, 210, 180]]]), cv2.COLOR_HSV2BGR).reshape(1, 3)
+    pale = cv2.cvtColor(np.uint8([[[3, 115, 180]]]), cv2.COLOR_HSV2BGR).reshape(1, 3)
+    assert stage_of(det.score_of(deep)[0]) == detection.STAGE_RED
+    assert stage_of(det.score_of(pale)[0]) == detection.STAGE_PINK
+    # the red side's rule leaves green alone: a green of the same saturation stays green
+    green = cv2.cvtColor(np.uint8([[[40, 115, 180]]]), cv2.COLOR_HSV2BGR).reshape(1, 3)
+    assert stage_of(det.score_of(green)[0]) == detection.STAGE_GREEN
+
+
+def test_circle_over_visible_background_is_rejected():
+    # a red half disc on white film: no fruit hides behind the film, so the full circle its arc
+    # follows is not a fruit; the same half disc whose other half is a leaf is one
+    det = TomatoDetector(scale=1.0, min_radius_px=10.0)
+    height, width = 160, 200
+    film = np.full((height, width, 3), (215, 222, 225), np.uint8)
+    yy, xx = np.mgrid[0:height, 0:width]
+    disc = (xx - 100) ** 2 + (yy - 80) ** 2 <= 40 ** 2
+    red = np.array((30, 40, 190), np.uint8)
+    half_on_film = film.copy()
+    half_on_film[disc & (yy < 80)] = red
+    behind_leaf = half_on_film.copy()
+    behind_leaf[(yy >= 80) & (yy < 130) & (abs(xx - 100) < 60)] = (40, 120, 50)
+    for image, found in ((half_on_film, False), (behind_leaf, True)):
+        hsv = cv2.cvtColor(image, cv2.COLOR_BGR2HSV)
+        frame = detection.Frame(image, hsv, 1.0)
+        part = (disc & (yy < 80))[30:90, 50:150]
+        share = det._see_through(frame, part, 50, 30, 50.0, 50.0, 40.0)
+        assert (share <= det.params['max_see_through']) == found, share
+        dets = [d for d in det.detect(image) if d.radius_px > 30]
+        assert bool(dets) == found, dets

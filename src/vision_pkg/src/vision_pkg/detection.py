@@ -83,6 +83,9 @@ DEFAULTS = {
     # shape
     'min_fill': 0.35,           # part area / fitted circle area, ripe-coloured fruit
     'min_fill_green': 0.6,      # same for the strict pass and green-graded fruit
+    'max_see_through': 0.2,     # share of a circle's disc where pale, bright background shows
+    'see_through_sat': 70,      # ... background: HSV saturation below this
+    'see_through_val': 120,     # ... and value above this (film, floor, sky, pipes)
     'min_inside': 0.85,         # fraction of the part's pixels inside its fitted circle
     'peak_separation': 0.75,    # NMS: a peak closer than this x the stronger radius is merged
     'single_fit_residual_px': 0.9,  # a region whose outline fits one circle within this median
@@ -106,6 +109,8 @@ DEFAULTS = {
     'score_hue': [4.0, 9.0, 14.0, 18.0, 22.0, 26.0, 30.0, 35.0, 41.0],
     'score_values': [1.0, 0.88, 0.7, 0.55, 0.42, 0.3, 0.18, 0.06, 0.0],
     'pale_sat': 130,            # pixels less saturated than this drift towards score 0.5
+    'pale_sat_red_low': 90,     # red-side pixels (ripeness > 0.5) drift to 0.5 linearly from
+    'pale_sat_red': 170,        # ... this saturation (score 0.5) up to this one (pale red: pink)
     'skin_min_ripeness': 0.25,  # pass 1: pixels graded below this (green) are not skin
 }
 
@@ -162,7 +167,10 @@ class TomatoDetector(RegionSplitter):
         ripe = np.interp(wrapped, p['score_hue'], p['score_values'])
         sat = np.arange(256, dtype=np.float64)
         pale = np.clip(sat / max(float(p['pale_sat']), 1.0), 0.0, 1.0)
-        table = 0.5 + (ripe[:, None] - 0.5) * pale[None, :]
+        low = min(float(p['pale_sat_red_low']), float(p['pale_sat_red']) - 1.0)
+        pale_red = np.clip((sat - low) / max(float(p['pale_sat_red']) - low, 1.0), 0.0, 1.0)
+        pale = np.where(ripe[:, None] > 0.5, pale_red[None, :], pale[None, :])
+        table = 0.5 + (ripe[:, None] - 0.5) * pale
         return table.astype(np.float32)
 
     # -- colour -------------------------------------------------------------------------------

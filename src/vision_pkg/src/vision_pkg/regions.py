@@ -80,8 +80,9 @@ class RegionSplitter(object):
         return detections
 
     @staticmethod
-    def _skin_pixels(frame, part, ox, oy, cx, cy, radius):
-        """(rows, cols) in the working image of the skin sample of a fruit circle."""
+    def _skin_pixels(frame, part, ox, oy, cx, cy, radius, disc_only=False):
+        """(rows, cols) in the working image of the skin sample of a fruit circle (with
+        `disc_only`, of the whole disc in the image)."""
         height, width = frame.hsv.shape[:2]
         x0, y0 = max(int(cx + ox - radius), 0), max(int(cy + oy - radius), 0)
         x1 = min(int(math.ceil(cx + ox + radius)) + 1, width)
@@ -90,6 +91,9 @@ class RegionSplitter(object):
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         yy, xx = np.mgrid[y0:y1, x0:x1]
         disc = (xx - (cx + ox)) ** 2 + (yy - (cy + oy)) ** 2 <= radius * radius
+        if disc_only:
+            rows, cols = np.nonzero(disc)
+            return rows + y0, cols + x0
         on_part = np.zeros(disc.shape, dtype=bool)
         px0, py0 = max(x0 - ox, 0), max(y0 - oy, 0)
         px1, py1 = min(x1 - ox, part.shape[1]), min(y1 - oy, part.shape[0])
@@ -101,6 +105,25 @@ class RegionSplitter(object):
             skin &= frame.fill[y0:y1, x0:x1] == 0
         rows, cols = np.nonzero(skin)
         return rows + y0, cols + x0
+
+    def _see_through(self, frame, part, ox, oy, cx, cy, radius):
+        """Share of a fruit circle's inner disc (0.9 r; crop-relative centre, working pixels)
+        that is neither its part nor something that could hide a fruit: bright, pale pixels
+        of the background (plastic film, floor, sky, pipes). A fruit hidden behind a leaf,
+        stem or another fruit is covered by them; where the background shows, the fruit is
+        not, so the circle is too large or misplaced."""
+        rows, cols = self._skin_pixels(frame, np.zeros_like(part), ox, oy, cx, cy, 0.9 * radius,
+                                       disc_only=True)
+        if not len(rows):
+            return 0.0
+        hsv = frame.hsv[rows, cols]
+        pale = (hsv[:, 1] < int(self.params['see_through_sat'])) & \
+            (hsv[:, 2] > int(self.params['see_through_val']))
+        on_part = np.zeros(len(rows), dtype=bool)
+        pr, pc = rows - oy, cols - ox
+        ok = (pr >= 0) & (pc >= 0) & (pr < part.shape[0]) & (pc < part.shape[1])
+        on_part[ok] = part[pr[ok], pc[ok]]
+        return float(np.mean(pale & ~on_part))
 
     def _peaks(self, dist, r_min):
         """Non-maximum-suppressed distance-transform maxima: list of (x, y, r)."""
@@ -262,6 +285,8 @@ class RegionSplitter(object):
                 p['min_fill']
             if inside < p['min_inside'] or fill < min_fill:
                 continue
+            if self._see_through(frame, part, ox, oy, cx, cy, r) > p['max_see_through']:
+                continue          # background shows where the circle says fruit: wrong circle
             if strict and score < p['outline_gate_score'] and not self._round_fruit_surface(
                     frame, cx + ox, cy + oy, r, hsv_px, circle, fill, inside, score):
                 continue          # green, but not round or no edge all round: a leaf
