@@ -120,16 +120,19 @@ def outline_cover(outer, cx, cy, r, samples=48):
 
 
 def hull_distance(hull, xs, ys):
-    """Distance of points to a convex polygon's boundary (points assumed inside)."""
+    """Distance of points to a convex polygon's boundary (points assumed inside or on it).
+
+    Inside a convex polygon the nearest boundary point lies on the edge whose line is nearest,
+    so the distance is the smallest distance to the edges' lines (no segment clipping)."""
     pts = hull.reshape(-1, 2).astype(np.float64)
-    a = pts
-    b = np.roll(pts, -1, axis=0)
-    ab = b - a
-    len2 = np.maximum((ab * ab).sum(1), 1e-9)
-    px = xs.astype(np.float64)[:, None]
-    py = ys.astype(np.float64)[:, None]
-    t = np.clip(((px - a[None, :, 0]) * ab[None, :, 0] + (py - a[None, :, 1]) * ab[None, :, 1])
-                / len2[None, :], 0.0, 1.0)
-    dx = px - (a[None, :, 0] + t * ab[None, :, 0])
-    dy = py - (a[None, :, 1] + t * ab[None, :, 1])
-    return np.sqrt(dx * dx + dy * dy).min(axis=1)
+    ab = np.roll(pts, -1, axis=0) - pts
+    length = np.sqrt((ab * ab).sum(1))
+    keep = length > 1e-9
+    if not keep.any():
+        return np.hypot(xs - pts[0, 0], ys - pts[0, 1])
+    pts, ab, length = pts[keep], ab[keep], length[keep]
+    # |cross(ab, p - a)| / |ab| for every point and edge: (n x 2) . (2 x m) minus a constant
+    normal = np.stack([-ab[:, 1], ab[:, 0]]) / length
+    offset = (pts * normal.T).sum(1)
+    p = np.column_stack([xs, ys]).astype(np.float64)
+    return np.abs(p.dot(normal) - offset).min(axis=1)
