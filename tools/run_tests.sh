@@ -80,26 +80,33 @@ for xml in src/*/package.xml; do
   done < <(grep -x "run_tests_${pkg}_[a-z-]*" <<<"$TARGETS")      # <type>: rostest, gtest...
 done
 
-echo "=== rostest (nodes talking to each other): ${ROSTEST_TARGETS[*]#run_tests_}"
-# three targets at a time: every rostest has its own master on a free port, each test file
-# that runs a simulated controller its own Modbus port, the Xvfb tests a free display; most of
-# these tests wait on mock servers and timers, not on the CPU (-j2: 2 min 47 s, -j3: 2 min 29 s)
-if ! catkin_make -C "$ROOT" "${ROSTEST_TARGETS[@]}" -j3 > "$RESULTS/rostest.log" 2>&1; then
+echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the other packages' rostests, then every package's pytest"
+# Two lanes, plain make in the build directory catkin_make configured (tools/setup.sh); two
+# catkin_make at once race on build/catkin_make.cache and both run cmake in the same directory.
+# Lane 1: the whole-mission rostests of harvest_bringup, one at a time (made to be as correct on a
+# busy machine as on a quiet one; two at a time each took 1.7x as long), from the start: they are
+# the longest chain. Lane 2: the other packages' rostests, three targets at a time (every rostest
+# has its own master on a free port, each test file that runs a simulated controller its own
+# Modbus port, the Xvfb tests a free display; most wait on mock servers and timers, not on the
+# CPU), then every package's pytest target (pure logic, no master), two at a time.
+# every run_tests target depends on `tests` (the gtest binaries): built once here, before the lanes,
+# so the two makes never compile the same file at once; catkin_make, whose configure check
+# settles the build directory (the first plain make after tools/setup.sh ran cmake again and
+# rewrote the devel space's Python packages while the other lane's tests imported them)
+if ! catkin_make -C "$ROOT" tests -j2 > "$RESULTS/tests-build.log" 2>&1; then
+  tail -80 "$RESULTS/tests-build.log"; FAILED_STEPS+=(tests-build)
+fi
+make -C "$ROOT/build" "${MISSION_TARGETS[@]}" -j1 > "$RESULTS/mission.log" 2>&1 &
+MISSION_PID=$!
+if ! make -C "$ROOT/build" "${ROSTEST_TARGETS[@]}" -j3 > "$RESULTS/rostest.log" 2>&1; then
   tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
 fi
-
-echo "=== pytest (pure logic, no ROS master) beside the whole-mission rostests: ${MISSION_TARGETS[*]#run_tests_}"
-# plain make, not catkin_make: two catkin_make at once race on build/catkin_make.cache and then
-# both run cmake in the same build directory (catkin_make above has configured it already)
-# (-j2: two packages' pytest at a time; the missions leave CPU free while their simulated world
-# rests, one at a time: two at a time each took 1.7x as long and the step 10 % longer)
-make -C "$ROOT/build" "${PYTEST_TARGETS[@]}" -j2 > "$RESULTS/pytest.log" 2>&1 &
-PYTEST_PID=$!
-if ! make -C "$ROOT/build" "${MISSION_TARGETS[@]}" -j1 >> "$RESULTS/rostest.log" 2>&1; then
-  tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
-fi
-if ! wait $PYTEST_PID; then
+echo "=== pytest (pure logic, no ROS master): ${PYTEST_TARGETS[*]#run_tests_}"
+if ! make -C "$ROOT/build" "${PYTEST_TARGETS[@]}" -j2 > "$RESULTS/pytest.log" 2>&1; then
   tail -80 "$RESULTS/pytest.log"; FAILED_STEPS+=(pytest-build)
+fi
+if ! wait $MISSION_PID; then
+  tail -80 "$RESULTS/mission.log"; FAILED_STEPS+=(mission-build)
 fi
 # one line per package, "pytest <package>: N passed in S s" (failures: the summary, pytest.log)
 awk '/-m pytest .*--junitxml=/ { if (match($0, /test_results\/[a-z0-9_]+\//)) pkg = substr($0, RSTART + 13, RLENGTH - 14) }
