@@ -137,3 +137,120 @@ def test_a_move_aborted_for_another_reason_is_retried_and_then_a_fault(monkeypat
     assert state.execute(None) == 'aborted'
     assert sent == ['aborted'] * 3 and stops == []
     assert 'drive fault on right_boom' in context.last_error
+
+
+def _stop_context(records, events, points=(0, 1)):
+    """A mission at the first of `points` with target 7 open, a stop under way."""
+    from control_pkg import mission as mission_lib
+    from control_pkg.executive_states import MissionContext
+    recorder = mission_lib.MissionRecorder('m1', same_fruit=0.03)
+    context = MissionContext({}, mission_lib.Progress(list(points)), recorder,
+                             publish_record=records.append,
+                             publish_event=lambda kind, state, detail: events.append((kind, detail)),
+                             halt=lambda: (True, 'halted'))
+    clock = [10.0]
+    context.now = lambda: clock[0]
+    context.progress.advance()
+    recorder.begin_fruit(0, 7, (0.5, 0.1, 1.0), 2.0)
+    context.checkpoint.target(7, (0.5, 0.1, 1.0))
+    recorder.add_state('DO_MOVE_ROBOT', 1.5)
+    return context, clock
+
+
+def _do_stop(context):
+    import threading
+    from control_pkg.executive_states import DoStop
+    estop, resume = threading.Event(), threading.Event()
+    estop.set()
+    resume.set()                       # the operator's resume, already there: no wait
+    assert DoStop(context, estop, resume).execute(None) == 'resume'
+    assert not estop.is_set()
+
+
+def _tomato(tid, y):
+    from harvest_msgs.msg import Tomato
+    t = Tomato(id=tid, radius=0.03, pickable=True)
+    t.pick_point.header.frame_id = 'base_link'
+    t.pick_point.point.x, t.pick_point.point.y, t.pick_point.point.z = 0.5, y, 1.0
+    return t
+
+
+def _next_target(context, targets):
+    from control_pkg.executive_states import NextPoint, NextTarget
+    ud = smach.UserData()
+    ud.targets = targets
+    assert NextPoint(context).execute(ud) == 'point'
+    return NextTarget(context).execute(ud), ud
+
+
+def test_a_fruit_the_stop_cut_short_and_picked_after_the_resume_has_one_record():
+    # issue 14: no `failed` record from DO_STOP; after the resume the same point is scanned
+    # again and the fruit (a new id, 5 mm away) continues its record, closed once by END_PICKED
+    from control_pkg import mission as mission_lib
+    from control_pkg.executive_states import EndFruit
+    records, events = [], []
+    context, clock = _stop_context(records, events)
+    _do_stop(context)
+    assert records == []
+    estop = [d for k, d in events if k == 'estop']
+    assert len(estop) == 1 and 'target 7 at picking point 0 interrupted' in estop[0]
+    clock[0] = 60.0
+    outcome, ud = _next_target(context, [_tomato(3, 0.105)])
+    assert outcome == 'target' and ud.picking_point == 0         # the interrupted point again
+    context.recorder.add_state('DO_MOVE_ROBOT', 2.0)
+    clock[0] = 70.0
+    EndFruit(context, mission_lib.OUTCOME_PICKED).execute(None)
+    assert [(r.target_id, r.outcome, r.reason) for r in records] == [(3, 'picked', '')]
+    rec = records[0]
+    assert rec.state_names == ['DO_MOVE_ROBOT', mission_lib.STOP_STATE, 'DO_MOVE_ROBOT']
+    assert rec.cycle_time == (10.0 - 2.0) + (70.0 - 60.0)        # without the pause
+    totals = context.recorder.totals()
+    assert (totals['attempted'], totals['picked'], totals['failed'], totals['interrupted']) == \
+        (1, 1, 0, 1)
+
+
+def test_a_fruit_the_stop_cut_short_that_is_gone_after_the_resume_is_failed_once():
+    # not in the new scan (the shear may have cut it; the scan may miss it): `failed`
+    # (interrupted) once the mission leaves its point, and the summary counts it once
+    from control_pkg import mission as mission_lib
+    records, events = [], []
+    context, clock = _stop_context(records, events)
+    _do_stop(context)
+    outcome, ud = _next_target(context, [])
+    assert outcome == 'done' and records == []                  # its point may still show it
+    _next_target(context, [])                                   # on to picking point 1
+    assert [(r.target_id, r.outcome) for r in records] == [(7, mission_lib.OUTCOME_FAILED)]
+    assert records[0].reason.startswith(mission_lib.INTERRUPTED)
+    assert records[0].cycle_time == 8.0
+    totals = context.recorder.totals()
+    assert (totals['attempted'], totals['failed'], totals['interrupted']) == (1, 1, 1)
+
+
+def test_a_fruit_already_in_the_box_when_the_stop_came_is_recorded_picked():
+    from control_pkg import checkpoint as checkpoint_lib
+    from control_pkg import mission as mission_lib
+    records, events = [], []
+    context, clock = _stop_context(records, events)
+    context.checkpoint.phase(checkpoint_lib.PHASE_PLACED)       # the valve closed over the box
+    _do_stop(context)
+    assert [(r.target_id, r.outcome) for r in records] == [(7, mission_lib.OUTCOME_PICKED)]
+    assert context.recorder.interrupted == [] and 'interrupted' not in context.recorder.totals()
+    assert context.checkpoint.current.target_id == -1           # done: not tried again
+
+
+def test_a_fruit_cut_and_held_when_the_stop_came_is_recorded_failed_at_once():
+    # off the plant, it cannot be tried again: failed now, and a target of the new scan 1 cm
+    # away (the mock's spacing) is another fruit
+    from control_pkg import checkpoint as checkpoint_lib
+    from control_pkg import mission as mission_lib
+    records, events = [], []
+    context, clock = _stop_context(records, events)
+    context.checkpoint.phase(checkpoint_lib.PHASE_PLACE)
+    _do_stop(context)
+    assert [(r.target_id, r.outcome) for r in records] == [(7, mission_lib.OUTCOME_FAILED)]
+    assert records[0].reason.startswith(mission_lib.INTERRUPTED)
+    assert records[0].state_names == ['DO_MOVE_ROBOT', mission_lib.STOP_STATE]
+    assert 'recorded failed' in [d for k, d in events if k == 'estop'][0]
+    assert context.checkpoint.current.phase == checkpoint_lib.PHASE_PLACE  # a restart places it
+    _next_target(context, [_tomato(8, 0.11)])
+    assert context.recorder.current.target_id == 8 and context.recorder.current.attempts == 1

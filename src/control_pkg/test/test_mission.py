@@ -62,6 +62,66 @@ def test_recorder_rejects_bad_input():
         r.end_fruit('eaten', 1.0)
 
 
+def test_an_attempt_the_emergency_stop_cut_short_goes_on_in_the_same_record():
+    # one fruit, one record (issue 14): the stop leaves the record open; the fruit of the new
+    # scan (another id, 1 cm away) continues it and closes it once; the pause is not its time
+    r = mission.MissionRecorder('m1', same_fruit=0.03)
+    first = r.begin_fruit(0, 7, (0.5, 0.0, 0.9), 20.0)
+    r.add_state('DO_KINEMATICS', 0.5)
+    r.add_state('DO_MOVE_ROBOT', 3.0)
+    assert r.interrupt(24.0) is first and r.current is None
+    t = r.totals()
+    assert (t['attempted'], t['failed'], t['interrupted']) == (0, 0, 1)
+    again = r.begin_fruit(0, 3, (0.5, 0.01, 0.9), 100.0)
+    assert again is first and (again.target_id, again.position) == (3, (0.5, 0.01, 0.9))
+    assert again.attempts == 2
+    r.add_state('DO_KINEMATICS', 0.5)
+    rec = r.end_fruit(mission.OUTCOME_PICKED, 106.0)
+    assert rec.state_names == ['DO_KINEMATICS', 'DO_MOVE_ROBOT', mission.STOP_STATE, 'DO_KINEMATICS']
+    assert rec.state_durations == [0.5, 3.0, 0.0, 0.5]
+    assert rec.cycle_time == pytest.approx(4.0 + 6.0)
+    t = r.totals()
+    assert (t['attempted'], t['picked'], t['failed'], t['interrupted']) == (1, 1, 0, 1)
+    assert t['mean_cycle_time'] == pytest.approx(10.0)
+    assert r.close_interrupted(mission.INTERRUPTED) == []
+
+
+def test_an_interrupted_fruit_not_taken_again_is_closed_failed_when_its_point_is_left():
+    r = mission.MissionRecorder('m1', same_fruit=0.03)
+    cut = r.begin_fruit(0, 7, (0.5, 0.0, 0.9), 20.0)
+    r.interrupt(23.0)
+    # 5 cm away at its point, or at another point: other fruit, records of their own
+    other = r.begin_fruit(0, 8, (0.5, 0.05, 0.9), 50.0)
+    r.end_fruit(mission.OUTCOME_PICKED, 55.0)
+    elsewhere = r.begin_fruit(1, 7, (0.5, 0.0, 0.9), 60.0)
+    r.end_fruit(mission.OUTCOME_PICKED, 66.0)
+    assert cut not in (other, elsewhere) and other is not elsewhere
+    assert r.close_interrupted('left', keep_point=0) == []       # still at its point
+    closed = r.close_interrupted('left', keep_point=1)
+    assert closed == [cut] and (cut.outcome, cut.reason) == (mission.OUTCOME_FAILED, 'left')
+    assert cut.cycle_time == pytest.approx(3.0)                   # the attempt, not the pause
+    assert r.interrupted == []
+    t = r.totals()
+    assert (t['attempted'], t['picked'], t['failed'], t['interrupted']) == (3, 2, 1, 1)
+
+
+def test_the_nearest_interrupted_record_is_continued_and_a_mission_without_stop_has_no_count():
+    r = mission.MissionRecorder('m1', same_fruit=0.03)
+    a = r.begin_fruit(0, 1, (0.5, 0.0, 0.9), 0.0)
+    r.interrupt(1.0)
+    b = r.begin_fruit(0, 2, (0.5, 0.04, 0.9), 2.0)
+    assert b is not a
+    r.interrupt(3.0)
+    assert r.begin_fruit(0, 9, (0.5, 0.025, 0.9), 10.0) is b     # both within 3 cm: b nearer
+    r.end_fruit(mission.OUTCOME_LOST, 11.0, 'target lost')
+    assert r.begin_fruit(0, 9, (0.5, 0.001, 0.9), 12.0) is a
+    assert r.totals()['interrupted'] == 2
+    quiet = mission.MissionRecorder('m2')
+    quiet.begin_fruit(0, 1, (0.5, 0.0, 0.9), 0.0)
+    quiet.end_fruit(mission.OUTCOME_PICKED, 5.0)
+    assert 'interrupted' not in quiet.totals()                   # the paper's summary unchanged
+
+
 def test_summary_line_format():
     line = mission.summary_line(3, 3, 0, 1, 28.44, 61.2)
     assert line == ('mission: picked 3 of 3 ripe reachable, damaged 0, skipped 1, '

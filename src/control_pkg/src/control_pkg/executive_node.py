@@ -212,7 +212,9 @@ class TaskPlanner(object):
         self._plan_received = threading.Event()
         self._plan_sub = rospy.Subscriber('plan/picking_points', Int32MultiArray, self._plan_cb, queue_size=1)
         self.progress = mission_lib.Progress(loader=self._load_points)
-        self.recorder = mission_lib.MissionRecorder(self.mission_id)
+        # a fruit tried again after an emergency stop: the same one within resume_skip_tolerance
+        self.recorder = mission_lib.MissionRecorder(
+            self.mission_id, same_fruit=float(self.config['resume_skip_tolerance']))
         self.shutdown_when_done = rospy.get_param('~shutdown_when_done', False)
 
         self._record_listener = _Replayed()
@@ -539,6 +541,9 @@ class TaskPlanner(object):
         # a mission cut short by the node's shutdown (SMACH may then end it 'aborted') goes on
         # at the next start: only a mission that really ended finishes its checkpoint
         if self.outcome in _FINISHED and not rospy.is_shutdown():
+            # a fruit an emergency stop cut short and the mission did not reach again
+            self.context.close_interrupted('the mission ended %s before it was tried again'
+                                           % self.outcome)
             # after DO_ERROR the operator may clear the fault and resume (continue_after_fault)
             self._fault_snapshot = self.checkpoints.current if self.outcome == 'aborted' else None
             self.checkpoints.finish(self.outcome)

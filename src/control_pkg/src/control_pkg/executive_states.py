@@ -88,6 +88,15 @@ class MissionContext(object):
             self.last_error = reason
         self.recorder.note_error(reason)
 
+    def close_interrupted(self, why, keep_point=None, record=None):
+        """Close and publish the records an emergency stop left open (MissionRecorder
+        .close_interrupted), but those of `keep_point`: `failed`, INTERRUPTED and `why`."""
+        for fruit in self.recorder.close_interrupted(
+                '%s; %s' % (mission_lib.INTERRUPTED, why), keep_point, record):
+            self.publish_record(fruit)
+            rospy.loginfo('executive: target %d %s (%s)', fruit.target_id, fruit.outcome,
+                          fruit.reason)
+
 
 def _status_text(state):
     """The text the action server gave with its last goal status, when the client exposes it."""
@@ -234,6 +243,9 @@ class NextPoint(smach.State):
         except ValueError as exc:
             self._context.fail('NEXT_POINT: %s' % exc)
             return 'error'
+        # a fruit an emergency stop cut short at the point left behind was not tried again
+        self._context.close_interrupted('not tried again after the resume (not among the '
+                                        'targets of its picking point)', keep_point=point)
         if point is None:
             return 'done'
         ud.picking_point = point
@@ -266,10 +278,13 @@ class NextTarget(smach.State):
         ud.targets = targets
         ud.target = target
         p = target.pick_point.point
-        self._context.recorder.begin_fruit(ud.picking_point, target.id, (p.x, p.y, p.z), self._context.now())
+        record = self._context.recorder.begin_fruit(ud.picking_point, target.id, (p.x, p.y, p.z),
+                                                    self._context.now())
         self._context.checkpoint.target(target.id, (p.x, p.y, p.z))
-        rospy.loginfo('executive: target %d (order %d) at (%.3f, %.3f, %.3f) in %s', target.id,
-                      target.pick_order, p.x, p.y, p.z, target.pick_point.header.frame_id)
+        rospy.loginfo('executive: target %d (order %d) at (%.3f, %.3f, %.3f) in %s%s', target.id,
+                      target.pick_order, p.x, p.y, p.z, target.pick_point.header.frame_id,
+                      ', attempt %d: the emergency stop cut the last one short' % record.attempts
+                      if record.interruptions else '')
         return 'target'
 
 
@@ -342,21 +357,28 @@ class EndFruit(smach.State):
         self._outcome = outcome
 
     def execute(self, ud):
-        outcome, dropped = self._outcome, self._context.dropped
-        self._context.dropped = None
-        reason = '' if outcome == mission_lib.OUTCOME_PICKED else self._context.last_error
-        if outcome == mission_lib.OUTCOME_PICKED and dropped:
-            outcome, reason = mission_lib.OUTCOME_DROPPED, dropped
-        record = self._context.recorder.end_fruit(outcome, self._context.now(), reason)
-        if record is not None and outcome in (mission_lib.OUTCOME_PICKED, mission_lib.OUTCOME_DROPPED):
-            self._context.gone.add(record.target_id)       # off the plant either way
-        if record is not None:
-            self._context.publish_record(record)
-            # after the record: a restart between the two finds the record in the store
-            self._context.checkpoint.target_done(record.target_id, record.position)
-            rospy.loginfo('executive: target %d %s after %.1f s%s', record.target_id, record.outcome,
-                          record.cycle_time, (' (%s)' % reason) if reason else '')
+        end_fruit(self._context, self._outcome)
         return 'done'
+
+
+def end_fruit(context, outcome):
+    """Close the current fruit's record with `outcome` (picked becomes dropped when the valve
+    closed over the box with no vacuum), publish it and mark it done in the checkpoint."""
+    dropped = context.dropped
+    context.dropped = None
+    reason = '' if outcome == mission_lib.OUTCOME_PICKED else context.last_error
+    if outcome == mission_lib.OUTCOME_PICKED and dropped:
+        outcome, reason = mission_lib.OUTCOME_DROPPED, dropped
+    record = context.recorder.end_fruit(outcome, context.now(), reason)
+    if record is not None and outcome in (mission_lib.OUTCOME_PICKED, mission_lib.OUTCOME_DROPPED):
+        context.gone.add(record.target_id)       # off the plant either way
+    if record is not None:
+        context.publish_record(record)
+        # after the record: a restart between the two finds the record in the store
+        context.checkpoint.target_done(record.target_id, record.position)
+        rospy.loginfo('executive: target %d %s after %.1f s%s', record.target_id, record.outcome,
+                      record.cycle_time, (' (%s)' % reason) if reason else '')
+    return record
 
 
 class DoError(smach.State):
@@ -435,6 +457,8 @@ def clear_preempts(state):
 
 class DoStop(smach.State):
     """DO_STOP: emergency stop. Halts every axis and pauses the mission until a resume command.
+    The fruit being picked keeps one record: open until it is taken again after the resume
+    (MissionRecorder.interrupt), or closed picked when it was already in the box.
 
     Outcomes: resume (continue from the interrupted picking point and target), shutdown (the
       node shuts down: its shutdown hook preempts the machine and sets the resume event only to
@@ -450,14 +474,29 @@ class DoStop(smach.State):
         self._resumed = resumed
 
     def execute(self, ud):
-        ok, message = self._context.halt()
+        c = self._context
+        ok, message = c.halt()
         rospy.logwarn('executive: DO_STOP: emergency stop, axes halted: %s (%s); paused until resume', ok, message)
-        self._context.publish_event('estop', 'DO_STOP', 'axes halted: %s' % message)
-        if self._context.recorder.current is not None:
-            record = self._context.recorder.end_fruit(mission_lib.OUTCOME_FAILED, self._context.now(),
-                                                      'interrupted by emergency stop')
-            self._context.publish_record(record)
-        self._context.progress.mark_interrupted()
+        detail = 'axes halted: %s' % message
+        phase = c.checkpoint.current.phase
+        if c.recorder.current is not None and phase == checkpoint_lib.PHASE_PLACED:
+            # the valve had closed over the box: the stop cut nothing short of this pick
+            end_fruit(c, mission_lib.OUTCOME_PICKED)
+        else:
+            # one fruit, one record: it stays open until the fruit is tried again after the
+            # resume (MissionRecorder.interrupt), or is closed `failed` if it is not
+            record = c.recorder.interrupt(c.now())
+            if record is not None:
+                detail += '; target %d at picking point %d interrupted (attempt %d)' % (
+                    record.target_id, record.picking_point, record.interruptions)
+            if record is not None and phase == checkpoint_lib.PHASE_PLACE:
+                # cut and on the suction cup: not on the plant, so not tried again
+                c.close_interrupted('cut and held when it came', record=record)
+                detail += ', cut and held: recorded failed'
+            elif record is not None:
+                detail += ', its record open until it is tried again'
+        c.publish_event('estop', 'DO_STOP', detail)
+        c.progress.mark_interrupted()
         self._resume.wait()
         if rospy.is_shutdown() or self.preempt_requested():
             if self.preempt_requested():

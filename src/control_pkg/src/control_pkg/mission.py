@@ -1,7 +1,8 @@
 """Mission bookkeeping for the executive, free of ROS: picking-point progress and the mission record.
 
 The record keeps, per fruit, the time spent in each state and the outcome (picked, unreachable,
-lost, failed with reason), and per run the totals that `make demo` prints.
+lost, failed with reason), one record per fruit even when an emergency stop cut an attempt short,
+and per run the totals that `make demo` prints.
 """
 import datetime
 import json
@@ -14,6 +15,10 @@ OUTCOME_LOST = 'lost'
 OUTCOME_FAILED = 'failed'
 OUTCOME_DROPPED = 'dropped'     # cut, then lost on the way to the box (vacuum lost while carrying)
 OUTCOMES = (OUTCOME_PICKED, OUTCOME_UNREACHABLE, OUTCOME_LOST, OUTCOME_FAILED, OUTCOME_DROPPED)
+#: the state label a fruit's record shows where an emergency stop cut its attempt short (0 s)
+STOP_STATE = 'DO_STOP'
+#: the reason of a fruit whose attempt an emergency stop cut short and that was not tried again
+INTERRUPTED = 'interrupted by emergency stop'
 
 
 class Progress(object):
@@ -74,7 +79,11 @@ class Progress(object):
 
 
 class FruitRecord(object):
-    """The states one target went through and how it ended."""
+    """The states one target went through and how it ended.
+
+    An attempt an emergency stop cut short leaves the record open (`interruptions`, a DO_STOP
+    state of 0 s where it stopped); the time until the fruit is taken again (`paused`: the
+    pause, the self-test and the new scan) is not its cycle time."""
 
     def __init__(self, picking_point, target_id, position, start_time):
         self.picking_point = picking_point
@@ -86,24 +95,39 @@ class FruitRecord(object):
         self.outcome = None
         self.reason = ''
         self.end_time = None
+        self.interruptions = 0
+        self.interrupted_at = None
+        self.paused = 0.0
+
+    @property
+    def attempts(self):
+        return self.interruptions + 1
 
     @property
     def cycle_time(self):
         if self.end_time is None:
             return float('nan')
-        return self.end_time - self.start_time
+        return self.end_time - self.start_time - self.paused
 
 
 class MissionRecorder(object):
     """Collects per-fruit records and mission totals. Times are plain seconds (ROS time).
 
     Thread-safe: states of a Concurrence report from several threads.
+
+    One fruit, one record: an attempt an emergency stop cuts short (`interrupt`) is no outcome;
+    the record waits in `interrupted` and goes on when the fruit is taken again (`begin_fruit`
+    at the same picking point within `same_fruit` m: target ids of two scans may differ), or is
+    closed `failed` (INTERRUPTED) once the mission leaves that point without it
+    (`close_interrupted`).
     """
 
-    def __init__(self, mission_id):
+    def __init__(self, mission_id, same_fruit=0.03):
         self.mission_id = mission_id
+        self.same_fruit = float(same_fruit)
         self.fruits = []
         self.current = None
+        self.interrupted = []
         self.start_time = None
         self.end_time = None
         self.points_visited = 0
@@ -137,9 +161,55 @@ class MissionRecorder(object):
             self.points_visited += 1
 
     def begin_fruit(self, picking_point, target_id, position, now):
+        """Open the record of a target taken; the record an emergency stop left open when the
+        target is that fruit again (then with this scan's id and position)."""
         with self._lock:
-            self.current = FruitRecord(picking_point, target_id, position, now)
-            return self.current
+            record = self._reopen(picking_point, position)
+            if record is None:
+                record = FruitRecord(picking_point, target_id, position, now)
+            else:
+                record.paused += max(0.0, now - record.interrupted_at)
+                record.interrupted_at = None
+                record.target_id, record.position = target_id, position
+            self.current = record
+            return record
+
+    def _reopen(self, picking_point, position):
+        near = [(distance(r.position, position), i) for i, r in enumerate(self.interrupted)
+                if r.picking_point == picking_point]
+        near = [d_i for d_i in near if d_i[0] <= self.same_fruit]
+        if not near:
+            return None
+        return self.interrupted.pop(min(near)[1])
+
+    def interrupt(self, now):
+        """An emergency stop cut the current fruit's attempt short: its record stays open
+        (returned; None when no fruit was open) until the fruit is taken again."""
+        with self._lock:
+            record = self.current
+            if record is None:
+                return None
+            record.state_names.append(STOP_STATE)
+            record.state_durations.append(0.0)
+            record.interruptions += 1
+            record.interrupted_at = now
+            self.interrupted.append(record)
+            self.current = None
+            return record
+
+    def close_interrupted(self, reason, keep_point=None, record=None):
+        """Close as `failed` (`reason`) every record an emergency stop left open (only `record`
+        when given), but those of picking point `keep_point`; each ends where it was stopped.
+        Returns them."""
+        with self._lock:
+            closed = [r for r in self.interrupted if r.picking_point != keep_point and
+                      (record is None or r is record)]
+            self.interrupted = [r for r in self.interrupted if r not in closed]
+            for fruit in closed:
+                fruit.outcome, fruit.reason = OUTCOME_FAILED, reason
+                fruit.end_time, fruit.interrupted_at = fruit.interrupted_at, None
+                self.fruits.append(fruit)
+            return closed
 
     def add_state(self, name, duration):
         """Account `duration` seconds of state `name` to the fruit being picked, if any."""
@@ -185,8 +255,17 @@ class MissionRecorder(object):
             return float('nan')
         return sum(times) / len(times)
 
+    def interruptions(self):
+        """How many fruit attempts an emergency stop cut short."""
+        with self._lock:
+            records = self.fruits + self.interrupted + ([self.current] if self.current else [])
+            return sum(r.interruptions for r in records)
+
     def totals(self):
         totals = self._totals()
+        interrupted = self.interruptions()
+        if interrupted:            # only after an emergency stop: otherwise the summary is unchanged
+            totals['interrupted'] = interrupted
         if self.steps:             # the pipelined schedule only: the paper's summary is unchanged
             with self._lock:
                 totals['overlaps'] = dict((k, {'overlapped': v[0], 'sequential': v[1]})

@@ -137,6 +137,21 @@ class ExecutiveTest(unittest.TestCase):
         self.assertEqual(s['outcome'], 'succeeded', s)
         # ~expect_picked: a fruit stopped while it is placed stays recorded `failed` (DO_STOP)
         self.assertEqual(s['picked'], rospy.get_param('~expect_picked', 2), s)
+        # one fruit, one record: the attempt the stop cut short is in the record that ends the
+        # fruit (a DO_STOP state there), counted once in `attempted` and once in `interrupted`
+        self.assertEqual((s['attempted'], s.get('interrupted')), (2, 1), s)
+        self.assertTrue(w.wait(lambda: len(w.records) >= 2), 'expected 2 pick records')
+        records = [(r.target_id, r.outcome, r.reason, list(r.state_names)) for r in w.records]
+        self.assertEqual(sorted(r[0] for r in records), [1, 2], records)
+        stopped = [r for r in records if 'DO_STOP' in r[3]]
+        self.assertEqual(len(stopped), 1, records)
+        self.assertEqual(stopped[0][3].count('DO_STOP'), 1, records)
+        failed = [r for r in records if r[1] == PickRecord.OUTCOME_FAILED]
+        self.assertEqual(len(failed), 2 - s['picked'], records)
+        self.assertTrue(all(r[2].startswith('interrupted by emergency stop') for r in failed), records)
+        estops = [e.detail for e in w.events if e.kind == 'estop']
+        self.assertEqual(len(estops), 1, estops)
+        self.assertIn('interrupted', estops[0])
 
     def start_and_finish(self):
         """Start a mission of a task_planner with autostart false; its summary once it succeeded."""

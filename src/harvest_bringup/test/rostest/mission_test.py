@@ -286,6 +286,16 @@ class MissionTest(unittest.TestCase):
         picked = [r for r in resp.records if r.outcome == PickRecord.OUTCOME_PICKED]
         self.assertEqual(len(picked), truth.collected, [(r.target_id, r.outcome, r.reason) for r in resp.records])
         self.assert_no_two_at_one_place(picked)
+        if rospy.get_param('~estop_during_right_move', False):
+            # one fruit, one record across the emergency stop: the attempt it cut short is a
+            # DO_STOP state of the record that ends that fruit, never a record of its own; only
+            # DO_ERROR's failed record shares a place with a later one
+            stopped = [(r.target_id, r.outcome) for r in resp.records if 'DO_STOP' in r.state_names]
+            self.assertEqual(len(stopped), 1, stopped)
+            self.assertEqual(s.get('interrupted'), 1, s)
+            axis = rospy.get_param('~axis_fault', 'right_boom 3').split()[0]
+            self.assert_no_two_at_one_place([r for r in resp.records if not (
+                r.outcome == PickRecord.OUTCOME_FAILED and axis in r.reason)])
 
     def assert_no_two_at_one_place(self, records):
         where = [(r.picking_point, r.pick_point.point) for r in records]
