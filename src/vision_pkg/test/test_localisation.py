@@ -150,3 +150,155 @@ def test_a_fruit_seen_only_by_its_highlight_is_ranged_by_the_highlight_virtual_i
     cv2.circle(dull, (int(round(gu)), int(round(gv))), 5, (30, 40, 120), -1)
     assert np.allclose(localisation.locate(cloud, det, P_RIGHT, image=dull).centre,
                        skin_only.centre)
+
+
+# ---------------------------------------------------------------- occluders inside the part
+SKIN_BGR = (30, 40, 160)
+LEAF_BGR = (40, 140, 60)
+
+
+def _ray(u, v):
+    return np.stack([(u - scene.CX) / scene.FOCAL, (v - scene.CY) / scene.FOCAL,
+                     np.ones_like(u)], axis=-1)
+
+
+def _sphere_hit(rays, centre, radius):
+    """Depth scale s of the nearest hit of each ray (right frame) on a sphere, NaN for a miss."""
+    dd = (rays * rays).sum(-1)
+    b = rays.dot(centre)
+    disc = b * b - dd * (centre.dot(centre) - radius * radius)
+    return np.where(disc > 0, (b - np.sqrt(np.maximum(disc, 0.0))) / dd, np.nan)
+
+
+def _cloud_of(u, v, points_right):
+    """Organized cloud (left grid, left frame) holding right-frame points seen at right pixels
+    (u, v): what stereo_image_proc gives for matched pixels."""
+    cloud = np.full((scene.HEIGHT, scene.WIDTH, 3), np.nan, np.float32)
+    left = points_right + np.array([scene.BASELINE, 0.0, 0.0])
+    ul = np.rint(scene.FOCAL * left[:, 0] / left[:, 2] + scene.CX).astype(int)
+    cloud[np.rint(v).astype(int), ul] = left
+    return cloud
+
+
+def _occluded_fruit(occluder_depth=None, behind_depth=None, skin_step=3, rim_depth=None):
+    """A red fruit (right frame) whose skin matches only on every `skin_step`-th pixel (it has
+    little texture), seen through a circle-shaped part (mask None, as when a stem or leaf is
+    bridged into it). occluder_depth: a textured green leaf band across the fruit's middle at
+    that depth, matched on every pixel; behind_depth: a patch of the skin mismatched to that
+    depth on every pixel (fruit colour). Returns (cloud, image, detection, true centre in the
+    left frame)."""
+    radius, centre = 0.035, np.array([0.03, -0.02, 0.55])
+    u0, v0 = scene.project(centre)
+    r_px = scene.FOCAL * radius / centre[2]
+    vv, uu = np.mgrid[int(v0 - r_px) - 2:int(v0 + r_px) + 3,
+                      int(u0 - r_px) - 2:int(u0 + r_px) + 3].astype(np.float64)
+    rays = _ray(uu, vv)
+    s = _sphere_hit(rays, centre, radius)
+    fruit = np.isfinite(s)
+    off = np.hypot(uu - u0, vv - v0) / r_px
+    leaf = fruit & (np.abs((uu - u0) + 0.5 * (vv - v0)) < 0.45 * r_px) \
+        if occluder_depth is not None else np.zeros_like(fruit)
+    skin = fruit & ~leaf
+    image = np.full((scene.HEIGHT, scene.WIDTH, 3), 90, np.uint8)
+    image[vv[skin].astype(int), uu[skin].astype(int)] = SKIN_BGR
+    image[vv[leaf].astype(int), uu[leaf].astype(int)] = LEAF_BGR
+    matched = skin & (uu % skin_step == 0) & (vv % skin_step == 0)
+    if rim_depth is not None:
+        matched &= off > 0.9
+        s = np.full_like(s, rim_depth)
+    depth = np.where(matched, s, np.nan)
+    depth[leaf] = occluder_depth if occluder_depth is not None else np.nan
+    if behind_depth is not None:
+        patch = skin & (np.hypot(uu - (u0 - 0.4 * r_px), vv - (v0 - 0.3 * r_px)) < 0.3 * r_px)
+        depth[patch] = behind_depth
+    ok = np.isfinite(depth)
+    cloud = _cloud_of(uu[ok], vv[ok], rays[ok] * depth[ok][:, None])
+    det = Detection(u0, v0, r_px, 0.95)
+    return cloud, image, det, centre + np.array([scene.BASELINE, 0.0, 0.0])
+
+
+def test_a_leaf_in_front_of_a_fruit_gives_the_fruit_centre_not_the_leafs():
+    """Most of a textureless fruit's points can be a textured leaf or stem in front of it that
+    its part holds: the median followed them (renders: 70-100 mm too near). The points are two
+    depth clusters; the one with the part's colour is the fruit."""
+    cloud, image, det, truth = _occluded_fruit(occluder_depth=0.47)
+    pts = localisation.points_on_fruit(cloud, det, P_RIGHT)
+    leafs = np.sum(np.abs(pts[:, 2] - 0.47) < 1e-3)
+    assert leafs > len(pts) / 2, 'the leaf must be most of the points for this test to mean much'
+    median_only = localisation.locate(cloud, det, P_RIGHT)          # no image, no colour
+    assert np.linalg.norm(median_only.centre - truth) > 0.04
+    loc = localisation.locate(cloud, det, P_RIGHT, image=image)
+    assert np.linalg.norm(loc.centre - truth) < 0.002, loc
+    assert loc.radius == pytest.approx(0.035, abs=0.001)
+    assert loc.points < len(pts)            # the leaf's points are not used
+
+
+def test_a_mismatch_behind_the_fruit_with_its_colour_does_not_win():
+    """Points of the skin mismatched far behind it have the skin's colour; the fruit is the
+    cluster with a fruit's radius, even when the mismatch has more points."""
+    cloud, image, det, truth = _occluded_fruit(behind_depth=1.1, skin_step=4)
+    pts = localisation.points_on_fruit(cloud, det, P_RIGHT)
+    behind = np.sum(pts[:, 2] > 1.0)
+    assert behind > len(pts) / 2
+    loc = localisation.locate(cloud, det, P_RIGHT, image=image)
+    assert np.linalg.norm(loc.centre - truth) < 0.002, loc
+    # its radius (about 0.07 m) is what rules the mismatch out: allow any radius and it wins
+    anything = localisation.locate(cloud, det, P_RIGHT, image=image, radius_range=(0.0, 1.0))
+    assert anything.centre[2] > 1.0
+
+
+def test_a_fruit_with_only_rim_points_has_no_3d_point():
+    """Block matching smears the rim onto the background; a fruit with no points in the core of
+    its silhouette (renders: one outside the left camera's view got 18 background points and
+    came out 300 mm too far) has no 3D point."""
+    cloud, image, det, truth = _occluded_fruit(rim_depth=0.95, skin_step=1)
+    assert len(localisation.points_on_fruit(cloud, det, P_RIGHT)) >= localisation.MIN_POINTS
+    assert localisation.locate(cloud, det, P_RIGHT, image=image) is None
+    assert localisation.locate(cloud, det, P_RIGHT) is None
+    whole, image, det, truth = _occluded_fruit(skin_step=1)
+    assert np.linalg.norm(localisation.locate(whole, det, P_RIGHT, image=image).centre - truth) \
+        < 0.002
+
+
+def test_a_clean_fruit_is_one_depth_cluster_and_located_as_before(stereo_scene):
+    """On a fruit with nothing in front, StereoBM's points are one cluster: the image changes
+    nothing but the highlight ranging, and the pick point stays within 5 mm."""
+    cloud, pairs = stereo_scene
+    for fruit, det in pairs:
+        pts = localisation.points_on_fruit(cloud, det, P_RIGHT)
+        pr = pts - np.array([scene.BASELINE, 0.0, 0.0])
+        axis, alpha = localisation.sphere_ray(det.u, det.v, det.radius_px, scene.FOCAL,
+                                              scene.FOCAL, scene.CX, scene.CY)
+        t = pr.dot(axis)
+        lateral = np.linalg.norm(pr - t[:, None] * axis, axis=1)
+        core = lateral < math.tan(localisation.EDGE_FRACTION * alpha) * t
+        dist = localisation.centre_distances(t[core], lateral[core], math.sin(alpha))
+        assert len(localisation.depth_clusters(dist, math.sin(alpha))) == 1
+        flat = np.full((scene.HEIGHT, scene.WIDTH, 3), 120, np.uint8)     # no highlight
+        with_image = localisation.locate(cloud, det, P_RIGHT, image=flat)
+        assert np.array_equal(with_image.centre, localisation.locate(cloud, det, P_RIGHT).centre)
+        assert np.linalg.norm(with_image.centre - _truth_left(fruit)) < 0.005
+
+
+def test_centre_distances_of_points_on_a_sphere_are_its_centre_distance():
+    dist, sin_a = 0.6, 0.06
+    radius = dist * sin_a
+    rng = np.random.RandomState(5)
+    # points on the visible cap, up to 0.8 R off the centre ray (along z)
+    rho = 0.8 * radius * np.sqrt(rng.random_sample(50))
+    t = dist - np.sqrt(radius * radius - rho * rho)
+    assert np.allclose(localisation.centre_distances(t, rho, sin_a), dist, atol=1e-12)
+    # a highlight point is the light's virtual image R/2 behind the front
+    glint = localisation.centre_distances(np.array([dist - radius / 2.0]), np.zeros(1), sin_a,
+                                          np.array([True]))
+    assert glint[0] == pytest.approx(dist)
+
+
+def test_fruit_radius_range_is_image_processings():
+    import os
+    import yaml
+    here = os.path.dirname(os.path.abspath(__file__))
+    with open(os.path.join(here, '..', 'config', 'image_processing.yaml')) as f:
+        config = yaml.safe_load(f)
+    assert localisation.FRUIT_RADIUS_RANGE == (config['min_fruit_radius'],
+                                               config['max_fruit_radius'])

@@ -380,7 +380,9 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
                                          (offsets['x'], offsets['y'], offsets['z']),
                                          cloud_msg.is_bigendian)
         detections = self.stereo_detector.detect(bgr)
-        found = [(det, localisation.locate(cloud, det, info.P, image=bgr)) for det in detections]
+        sizes = (self.min_fruit_radius, self.max_fruit_radius)
+        found = [(det, localisation.locate(cloud, det, info.P, image=bgr, radius_range=sizes))
+                 for det in detections]
         with self._cache_lock:
             self._cache = (stamp, found)
         return found

@@ -25,6 +25,21 @@ in dim light it has none, the highlight and its sheen are all that match, and th
 the image the detection was made on, a point whose pixel is at least SPECULAR_RATIO times as
 bright (HSV value) as the median of the fruit's visible part is ranged as that virtual image:
 D_i = t + R/2.
+
+Occluders: the fruit's part can hold points of something in front of the fruit (a stem or leaf
+bridged into it, a neighbour), and where the skin has little texture they can be most of its
+points, so the median followed them (renders: 70-100 mm too near). Each point in the core of the
+silhouette (angular offset < EDGE_FRACTION alpha) gives the distance of the centre of the sphere of
+angular radius alpha whose front passes through it; one fruit's points agree on it, so where the
+sorted distances leave a gap of more than CLUSTER_GAP x the radius they imply, they are different
+surfaces. Given the image, the fruit is the largest of those clusters whose radius D sin alpha is a
+fruit's (FRUIT_RADIUS_RANGE) and whose pixels have the colour of the part (median chromaticity
+within SKIN_CHROMA_TOL of the part's; highlight points count as skin): stems, leaves and a
+neighbour of another colour are not the skin, and a mismatch behind the fruit has its colour but
+few points. No such cluster, or no image: all points, as before. (A neighbour that is most of
+the part sets the part's colour itself and is kept.) A fruit with fewer than
+min_points points in its core has only rim points, which block matching smears (a fruit outside
+the left camera's view got its 18 points from the background, 300 mm too far): no 3D point.
 """
 import math
 
@@ -36,6 +51,12 @@ EDGE_FRACTION = 0.8
 MIN_POINTS = 12
 #: a point whose pixel is this many times as bright as the fruit's median is on its highlight
 SPECULAR_RATIO = 1.4
+#: centre-distance estimates further apart than this fraction of the radius are two surfaces
+CLUSTER_GAP = 0.5
+#: a fruit's 3D radius (m): image_processing.yaml min/max_fruit_radius, the suction sleeve's
+FRUIT_RADIUS_RANGE = (0.018, 0.055)
+#: a cluster whose pixels' median chromaticity is this close to the part's is the fruit's skin
+SKIN_CHROMA_TOL = 0.1
 
 
 class FruitLocation(object):
@@ -132,43 +153,132 @@ def points_on_fruit(cloud, detection, right_p, pixels=False):
     return (pts[on], u[on], v[on]) if pixels else pts[on]
 
 
-def on_highlight(image, detection, u, v, ratio=SPECULAR_RATIO):
-    """Per point (right-image pixel u, v): is it on the fruit's specular highlight, i.e. at
-    least `ratio` times as bright (HSV value = max of B, G, R) as the median of the fruit's
-    visible part in `image` (the BGR image the detection was made on)?"""
+def part_pixels(image, detection):
+    """Nx3 BGR pixels of the detection's visible part in `image` (none when it is empty)."""
     h, w = image.shape[:2]
     x0, y0, bw, bh = detection.box(w, h)
-    if bw <= 0 or bh <= 0 or len(u) == 0:
-        return np.zeros(len(u), dtype=bool)
-    value = image[y0:y0 + bh, x0:x0 + bw].max(axis=2)
+    if bw <= 0 or bh <= 0:
+        return np.zeros((0, 3), image.dtype)
     yy, xx = np.mgrid[y0:y0 + bh, x0:x0 + bw]
-    visible = detection.contains(xx, yy)
-    if not visible.any():
-        return np.zeros(len(u), dtype=bool)
-    median = float(np.median(value[visible]))
+    return image[y0:y0 + bh, x0:x0 + bw][detection.contains(xx, yy)]
+
+
+def _pixels(image, u, v):
+    """BGR of the image pixels nearest to (u, v), Nx3."""
+    h, w = image.shape[:2]
     ui = np.clip(np.rint(u).astype(np.int64), 0, w - 1)
     vi = np.clip(np.rint(v).astype(np.int64), 0, h - 1)
-    return image[vi, ui].max(axis=1).astype(np.float64) >= ratio * max(median, 1.0)
+    return image[vi, ui]
+
+
+def _chromaticity(bgr):
+    bgr = np.asarray(bgr, dtype=np.float64) + 1.0
+    return bgr / bgr.sum(axis=-1, keepdims=True)
+
+
+def on_highlight(image, detection, u, v, ratio=SPECULAR_RATIO, part=None):
+    """Per point (right-image pixel u, v): is it on the fruit's specular highlight, i.e. at
+    least `ratio` times as bright (HSV value = max of B, G, R) as the median of the fruit's
+    visible part in `image` (the BGR image the detection was made on)? part: its
+    part_pixels, if known."""
+    if len(u) == 0:
+        return np.zeros(0, dtype=bool)
+    if part is None:
+        part = part_pixels(image, detection)
+    if len(part) == 0:
+        return np.zeros(len(u), dtype=bool)
+    median = float(np.median(part.max(axis=1)))
+    return _pixels(image, u, v).max(axis=1).astype(np.float64) >= ratio * max(median, 1.0)
+
+
+def skin_colour_distance(image, detection, u, v, part=None):
+    """Per point (right-image pixel u, v): distance of its pixel's chromaticity (B, G, R over
+    their sum) from the median chromaticity of the detection's visible part (its
+    part_pixels, if known); None when the part is empty."""
+    if part is None:
+        part = part_pixels(image, detection)
+    if len(part) == 0:
+        return None
+    skin = np.median(_chromaticity(part), axis=0)
+    return np.linalg.norm(_chromaticity(_pixels(image, u, v)) - skin, axis=1)
+
+
+def centre_distances(t, lateral, sin_a, glint=None):
+    """Per point at depth t along the centre ray and `lateral` from it: distance of the centre
+    of the sphere of angular radius alpha on that ray whose front passes through the point
+    (|p - D axis| = D sin alpha, the far root); a highlight point is the virtual image R/2
+    behind the front, D = t / (1 - sin alpha / 2). Points outside the cone count as on it."""
+    cos2 = 1.0 - sin_a * sin_a
+    disc = np.maximum(t * t * sin_a * sin_a - cos2 * lateral * lateral, 0.0)
+    dist = (t + np.sqrt(disc)) / cos2
+    if glint is not None:
+        dist = np.where(glint, t / (1.0 - 0.5 * sin_a), dist)
+    return dist
+
+
+def depth_clusters(dist, sin_a, gap=CLUSTER_GAP):
+    """Index arrays of the runs of sorted centre distances `dist` with no step larger than
+    `gap` x the radius they imply (dist sin alpha), nearest first."""
+    low = float(dist.min())
+    if float(dist.max()) - low <= gap * sin_a * low:       # one surface: no sort needed
+        return [np.arange(len(dist))]
+    order = np.argsort(dist, kind='stable')
+    ordered = dist[order]
+    cuts = np.nonzero(np.diff(ordered) > gap * sin_a * ordered[:-1])[0] + 1
+    return np.split(order, cuts)
+
+
+def fruit_cluster(clusters, dist, sin_a, colour, min_points=MIN_POINTS,
+                  radius_range=FRUIT_RADIUS_RANGE, tol=SKIN_CHROMA_TOL):
+    """The cluster (index array) that is the fruit: the largest with at least min_points points,
+    a radius (median dist x sin alpha) in radius_range and a median colour distance <= tol;
+    None when there is none."""
+    best = None
+    for idx in clusters:
+        if len(idx) < min_points or (best is not None and len(idx) <= len(best)):
+            continue
+        radius = float(np.median(dist[idx])) * sin_a
+        if radius_range[0] <= radius <= radius_range[1] and float(np.median(colour[idx])) <= tol:
+            best = idx
+    return best
 
 
 def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image=None,
-           specular_ratio=SPECULAR_RATIO):
-    """FruitLocation of a detection (cloud frame), or None when too few valid points.
+           specular_ratio=SPECULAR_RATIO, radius_range=FRUIT_RADIUS_RANGE):
+    """FruitLocation of a detection (cloud frame), or None when too few valid points (in all,
+    or in the core of its silhouette).
 
     image: the BGR image the detection was made on (the right rectified image); with it, points
-    on the specular highlight are ranged as its virtual image (module docstring)."""
+    on the specular highlight are ranged as its virtual image, and of several depth clusters
+    the fruit's skin is kept (module docstring). radius_range: a fruit's 3D radius (m)."""
     fx, fy, cx, cy, baseline = projection_params(right_p)
     pts, pu, pv = points_on_fruit(cloud, detection, right_p, pixels=True)
     if len(pts) < min_points:
         return None
-    glint = on_highlight(image, detection, pu, pv, specular_ratio) if image is not None else \
-        np.zeros(len(pts), dtype=bool)
+    part = part_pixels(image, detection) if image is not None else None
+    glint = on_highlight(image, detection, pu, pv, specular_ratio, part) \
+        if image is not None else np.zeros(len(pts), dtype=bool)
     offset = np.array([baseline, 0.0, 0.0])     # right camera centre in the left frame
     pr = pts - offset
     axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
     t = pr.dot(axis)
     lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
     sin_a = math.sin(alpha)
+    core = np.nonzero(lateral < math.tan(EDGE_FRACTION * alpha) * t)[0]
+    if len(core) < min_points:
+        return None
+    if image is not None:
+        centre_d = centre_distances(t[core], lateral[core], sin_a, glint[core])
+        clusters = depth_clusters(centre_d, sin_a)
+        colour = skin_colour_distance(image, detection, pu[core], pv[core], part) \
+            if len(clusters) > 1 else None
+        if colour is not None:
+            colour[glint[core]] = 0.0
+            fruit = fruit_cluster(clusters, centre_d, sin_a, colour, min_points, radius_range)
+            if fruit is not None:
+                keep = core[fruit]
+                pts, pr, t, lateral, glint = pts[keep], pr[keep], t[keep], lateral[keep], \
+                    glint[keep]
     # start: the median surface depth pushed back by the radius it implies
     t_med = float(np.median(t))
     dist = t_med / max(1.0 - sin_a, 1e-6) if sin_a < 1.0 else t_med
