@@ -149,3 +149,27 @@ def test_pull_is_the_first_candidate_clear_of_other_fruit():
     passed = ((0.46, 0.065, 0.9), 0.03)
     assert choose_pull(held[0], held[1], [passed], candidates) == candidates[0]
     assert choose_pull(held[0], held[1], [front], []) is None
+
+
+def test_the_outcomes_are_the_pick_records_constants():
+    from harvest_msgs.msg import PickRecord
+    constants = [n for n in dir(PickRecord) if n.startswith('OUTCOME_')]
+    assert len(mission.OUTCOMES) == len(constants)
+    for name in constants:
+        code = getattr(PickRecord, name)
+        assert mission.OUTCOME_NAMES[code] == name[len('OUTCOME_'):].lower()
+        assert mission.OUTCOME_CODES[mission.OUTCOME_NAMES[code]] == code
+    assert mission.OUTCOMES == tuple(mission.OUTCOME_NAMES[c] for c in sorted(mission.OUTCOME_NAMES))
+    assert mission.OUTCOME_DROPPED == mission.OUTCOME_NAMES[PickRecord.OUTCOME_DROPPED]
+
+
+def test_the_totals_count_every_outcome_in_code_order():
+    r = mission.MissionRecorder('m1')
+    for i, outcome in enumerate(mission.OUTCOMES):
+        r.begin_fruit(0, i, (0.5, 0.0, 0.9), float(i))
+        r.end_fruit(outcome, i + 0.5, '' if outcome == mission.OUTCOME_PICKED else 'why')
+    keys = list(r.totals())
+    counted = [k for k in keys if k in mission.OUTCOMES]
+    assert counted == list(mission.OUTCOMES)
+    assert keys.index(counted[0]) == keys.index('attempted') + 1       # the summary's order
+    assert all(r.totals()[o] == 1 for o in mission.OUTCOMES)

@@ -193,6 +193,22 @@ def test_mission_stats():
     assert st.mission_id == 'm2' and len(st.fruits) == 1 and st.summary is None
 
 
+def test_mission_stats_names_the_pick_records_outcomes():
+    from harvest_msgs.msg import PickRecord
+    constants = [n for n in dir(PickRecord) if n.startswith('OUTCOME_')]
+    assert len(mission_stats.OUTCOMES) == len(constants)
+    for name in constants:
+        assert mission_stats.outcome_name(getattr(PickRecord, name)) == name[len('OUTCOME_'):].lower()
+    assert mission_stats.outcome_name(len(constants)) == 'outcome %d' % len(constants)
+
+
+def test_mission_markers_colour_every_outcome():
+    from harvest_msgs.msg import PickRecord
+    from visualization_pkg import mission_markers
+    codes = set(getattr(PickRecord, n) for n in dir(PickRecord) if n.startswith('OUTCOME_'))
+    assert set(mission_markers.OUTCOME_RGBA) == codes
+
+
 # --- console, diagnostics, nodes --------------------------------------------------------------------
 def test_log_filter():
     buf = log_buffer.LogBuffer(size=3)

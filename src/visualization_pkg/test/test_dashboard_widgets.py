@@ -197,6 +197,12 @@ def test_mission_plot_paints(app):
     assert len(colours) > 4                                 # bars drawn, not a blank widget
 
 
+def test_mission_panel_colours_every_outcome(app):
+    from visualization_pkg.dashboard import mission_panel, mission_stats
+    assert sorted(mission_panel.OUTCOME_COLOURS) == sorted(mission_stats.OUTCOMES)
+    assert len(set(c.name() for c in mission_panel.OUTCOME_COLOURS.values())) == len(mission_stats.OUTCOMES)
+
+
 def wait_until(predicate, timeout=20.0):
     """Run the Qt event loop until predicate() holds or `timeout` s pass (a bounded QEventLoop wait)."""
     from python_qt_binding.QtCore import QElapsedTimer, QEventLoop, QTimer

@@ -123,12 +123,13 @@ def main():
         import rospy
         from std_msgs.msg import String
         from harvest_msgs.msg import MoveRobotActionGoal, PickRecord
+        from visualization_pkg import names
         rospy.init_node('doc_screenshots', anonymous=True, disable_signals=True)
         records, moving = [], threading.Event()
-        rospy.Subscriber('/mission/pick_records', PickRecord, records.append)
-        rospy.Subscriber('/move_robot/goal', MoveRobotActionGoal, lambda _m: moving.set())
+        rospy.Subscriber('/' + names.PICK_RECORDS, PickRecord, records.append)
+        rospy.Subscriber('/' + names.MOVE_ROBOT + '/goal', MoveRobotActionGoal, lambda _m: moving.set())
         ended = []
-        rospy.Subscriber('/mission/summary', String, lambda m: ended.append(m.data))
+        rospy.Subscriber('/' + names.SUMMARY, String, lambda m: ended.append(m.data))
         deadline = time.time() + args.timeout
         while len([r for r in records if r.outcome == PickRecord.OUTCOME_PICKED]) < args.fruit:
             if time.time() > deadline:

@@ -21,6 +21,8 @@ Phases of the target being picked (Checkpoint.phase) and what the robot may be d
 """
 import math
 
+from control_pkg.mission import OUTCOME_LOST, OUTCOME_PICKED
+
 PHASE_NONE = ''
 PHASE_APPROACH = 'approach'
 PHASE_SUCTION = 'suction'
@@ -40,8 +42,8 @@ STEP_RELEASE = 'release'          # suction off where the arm is
 STEP_HOME = 'home'                # left arm home (waist 0), right arm home
 
 # the record a resume writes for the fruit it was holding (ResumePlan.record)
-RECORD_PICKED = 'picked'
-RECORD_LOST = 'lost'
+RECORD_PICKED = OUTCOME_PICKED
+RECORD_LOST = OUTCOME_LOST
 
 
 class Snapshot(object):

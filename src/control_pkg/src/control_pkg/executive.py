@@ -61,7 +61,7 @@ def build_state_machine(context, estop_event, resume_event):
     """Build the ROOT state machine. `context.config` is a dict (see config/executive.yaml);
     its `schedule` chooses the graph of one target: `paper` (Figure 14, this module) or
     `pipelined` (the arms overlap, executive_pipelined.py)."""
-    if context.config.get('schedule', mission_lib.SCHEDULE_PAPER) == mission_lib.SCHEDULE_PIPELINED:
+    if context.config['schedule'] == mission_lib.SCHEDULE_PIPELINED:
         from control_pkg.executive_pipelined import PipelinedGraph
         g = PipelinedGraph(context)
     else:
@@ -111,9 +111,9 @@ class _Graph(object):
         self.cfg = context.config
         self.cb = callbacks or _Callbacks(context)
         self.gate = None
-        self.pulls = [tuple(float(v) for v in p) for p in self.cfg.get('right_pulls', [])]
-        self.relocate = float(self.cfg.get('relocate_tolerance', 0.0)) > 0.0
-        self.check_cut = bool(self.cfg.get('check_cut_before_suction', False))
+        self.pulls = [tuple(float(v) for v in p) for p in self.cfg['right_pulls']]
+        self.relocate = float(self.cfg['relocate_tolerance']) > 0.0
+        self.check_cut = bool(self.cfg['check_cut_before_suction'])
 
     def action(self, label, key, spec, arm=None, **kwargs):
         """An action state of `key` (config `actions`); `arm`: the arm its goal moves, if any."""
@@ -122,7 +122,7 @@ class _Graph(object):
             kwargs.update(gate=self.gate, gate_arm='left' if arm == ARM_LEFT else 'right')
         return HarvestActionState(self.context, label, cfg['actions'][key], spec,
                                   retries=cfg['retries'].get(key, 0),
-                                  exec_timeout=cfg['timeouts'].get(key, 30.0),
+                                  exec_timeout=cfg['timeouts'][key],
                                   server_wait_timeout=cfg['server_wait_timeout'], **kwargs)
 
     def end_effector(self, command, after=checkpoint_lib.PHASE_PLACED):
@@ -250,8 +250,8 @@ class _Graph(object):
         """CHOOSE_PULL -> DO_KINEMATICS_PULL -> DO_MOVE_ROBOT_PULL [-> DO_TOMATO_SCAN_HELD]."""
         cfg, cb = self.cfg, self.cb
         smach.StateMachine.add('CHOOSE_PULL', ChoosePull(
-            self.context, self.pulls, float(cfg.get('pull_clearance', 0.0)),
-            float(cfg['peduncle_gap']), float(cfg.get('cut_clearance', 0.01))),
+            self.context, self.pulls, float(cfg['pull_clearance']),
+            float(cfg['peduncle_gap']), float(cfg['cut_clearance'])),
             transitions={'pull': 'DO_KINEMATICS_PULL', 'none': 'succeeded'})
         # a pull the arm cannot make is not an error: the fruit is cut where it hangs
         self.add_reach('_PULL', cb.pull_goal, cb.pull_kinematics_result, ARM_RIGHT,
@@ -366,10 +366,10 @@ class _Callbacks(object):
         self.frame = cfg['base_frame']
         self.peduncle_gap = float(cfg['peduncle_gap'])
         self.approach = float(cfg['left_approach_standoff'])
-        self.relocate_tolerance = float(cfg.get('relocate_tolerance', 0.0))
-        self.relocate_radius_tolerance = float(cfg.get('relocate_radius_tolerance', 0.0))
-        self.components = list(cfg.get('self_test_components', []))
-        self.skip_tolerance = float(cfg.get('resume_skip_tolerance', 0.03))
+        self.relocate_tolerance = float(cfg['relocate_tolerance'])
+        self.relocate_radius_tolerance = float(cfg['relocate_radius_tolerance'])
+        self.components = list(cfg['self_test_components'])
+        self.skip_tolerance = float(cfg['resume_skip_tolerance'])
 
     # --- after a restart (RESUME) ----------------------------------------------------------------
     def resume_check(self, ud):

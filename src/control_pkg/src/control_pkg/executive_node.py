@@ -44,16 +44,9 @@ from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import executive
 from control_pkg.executive_states import MissionContext, clear_preempts
 from control_pkg import mission as mission_lib
+from control_pkg import names
 from control_pkg import node_watch
 
-_OUTCOME_CODES = {
-    mission_lib.OUTCOME_PICKED: PickRecord.OUTCOME_PICKED,
-    mission_lib.OUTCOME_UNREACHABLE: PickRecord.OUTCOME_UNREACHABLE,
-    mission_lib.OUTCOME_LOST: PickRecord.OUTCOME_LOST,
-    mission_lib.OUTCOME_FAILED: PickRecord.OUTCOME_FAILED,
-    mission_lib.OUTCOME_DROPPED: PickRecord.OUTCOME_DROPPED,
-}
-_OUTCOME_NAMES = dict((v, k) for k, v in _OUTCOME_CODES.items())
 #: mission outcomes that finish its checkpoint (a preempted one, the node shut down, goes on)
 _FINISHED = ('succeeded', 'aborted')
 
@@ -158,7 +151,7 @@ def merged_config(overrides, defaults=None):
             isinstance(p, (list, tuple)) and len(p) == 3 and
             all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in p) for p in pulls):
         raise ValueError('right_pulls must be a list of [dx, dy, dz] (finite, m), got %r' % (pulls,))
-    watched = cfg.get('watched_nodes', [])
+    watched = cfg['watched_nodes']
     if not isinstance(watched, (list, tuple)) or not all(isinstance(n, str) and n for n in watched):
         raise ValueError('watched_nodes must be a list of node names, got %r' % (watched,))
     for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait',
@@ -174,7 +167,7 @@ def merged_config(overrides, defaults=None):
     tol = cfg['relocate_tolerance']
     if not isinstance(tol, (int, float)) or not math.isfinite(float(tol)) or float(tol) < 0.0:
         raise ValueError('relocate_tolerance must be a finite number >= 0 (m), got %r' % (tol,))
-    rtol = cfg.get('relocate_radius_tolerance', 0.0)
+    rtol = cfg['relocate_radius_tolerance']
     if not isinstance(rtol, (int, float)) or not 0.0 <= float(rtol) < 1.0:
         raise ValueError('relocate_radius_tolerance must be a number in [0, 1), got %r' % (rtol,))
     return cfg
@@ -200,7 +193,7 @@ class TaskPlanner(object):
         self._checkpoint_listener = _Subscribed()
         with warnings.catch_warnings():     # rospy warns of queue_size None: deliberate here
             warnings.simplefilter('ignore', SyntaxWarning)
-            self._checkpoint_pub = rospy.Publisher('mission/checkpoints', Checkpoint, latch=True,
+            self._checkpoint_pub = rospy.Publisher(names.CHECKPOINTS, Checkpoint, latch=True,
                                                    subscriber_listener=self._checkpoint_listener,
                                                    queue_size=None)
         resumed = self._unfinished_checkpoint()
@@ -210,7 +203,7 @@ class TaskPlanner(object):
                 time.time(), os.urandom(2).hex()))
         self._plan = None
         self._plan_received = threading.Event()
-        self._plan_sub = rospy.Subscriber('plan/picking_points', Int32MultiArray, self._plan_cb, queue_size=1)
+        self._plan_sub = rospy.Subscriber(names.PLAN, Int32MultiArray, self._plan_cb, queue_size=1)
         self.progress = mission_lib.Progress(loader=self._load_points)
         # a fruit tried again after an emergency stop: the same one within resume_skip_tolerance
         self.recorder = mission_lib.MissionRecorder(
@@ -218,13 +211,13 @@ class TaskPlanner(object):
         self.shutdown_when_done = rospy.get_param('~shutdown_when_done', False)
 
         self._record_listener = _Replayed()
-        self._record_pub = rospy.Publisher('mission/pick_records', PickRecord, queue_size=100,
+        self._record_pub = rospy.Publisher(names.PICK_RECORDS, PickRecord, queue_size=100,
                                            subscriber_listener=self._record_listener)
         self._event_listener = _Replayed()
-        self._event_pub = rospy.Publisher('mission/events', MissionEvent, queue_size=100,
+        self._event_pub = rospy.Publisher(names.EVENTS, MissionEvent, queue_size=100,
                                           subscriber_listener=self._event_listener)
-        self._summary_pub = rospy.Publisher('mission/summary', String, queue_size=1, latch=True)
-        self._state_pub = rospy.Publisher('~state', String, queue_size=1, latch=True)
+        self._summary_pub = rospy.Publisher(names.SUMMARY, String, queue_size=1, latch=True)
+        self._state_pub = rospy.Publisher(names.STATE, String, queue_size=1, latch=True)
         self._halt = None                  # persistent halt_all proxy, made on first use
         self._halt_lock = threading.Lock()
 
@@ -244,13 +237,13 @@ class TaskPlanner(object):
         if self.config['schedule'] == mission_lib.SCHEDULE_PIPELINED:
             self._setup_pipelined()
         self.sm = executive.build_state_machine(self.context, self.estop, self.resume)
-        self._introspection = IntrospectionServer(rospy.get_param('~introspection_name', 'harvest_executive'),
+        self._introspection = IntrospectionServer(rospy.get_param('~introspection_name', names.INTROSPECTION_SERVER),
                                                   self.sm, '/SM_ROOT')
         self._introspection.start()
-        rospy.Subscriber('emergency_stop', Bool, self._estop_topic_cb, queue_size=10)
-        rospy.Service('~emergency_stop', Trigger, self._estop_srv)
-        rospy.Service('~resume', Trigger, self._resume_srv)
-        rospy.Service('~start', Trigger, self._start_srv)
+        rospy.Subscriber(names.EMERGENCY_STOP, Bool, self._estop_topic_cb, queue_size=10)
+        rospy.Service(names.EMERGENCY_STOP_SERVICE, Trigger, self._estop_srv)
+        rospy.Service(names.RESUME, Trigger, self._resume_srv)
+        rospy.Service(names.START, Trigger, self._start_srv)
         self.outcome = None
         self._thread = None
         self._run_lock = threading.Lock()     # ~start and ~resume after a fault
@@ -269,12 +262,12 @@ class TaskPlanner(object):
     def _watch_nodes_setup(self):
         """Look up `watched_nodes` with the master every `node_watch_period` (ROS time): a node
         registered again from a new process (respawned) is a mission event `restart`."""
-        names = [rospy.resolve_name(n) for n in self.config['watched_nodes']]
-        self._restarts = node_watch.RestartTracker(names)
+        watched = [rospy.resolve_name(n) for n in self.config['watched_nodes']]
+        self._restarts = node_watch.RestartTracker(watched)
         self._master = rosgraph.Master(rospy.get_name())
         period = float(self.config['node_watch_period'])
         self._node_watch_timer = None
-        if period > 0 and names:
+        if period > 0 and watched:
             self._watch_nodes()
             self._node_watch_timer = rospy.Timer(rospy.Duration(period), self._watch_nodes)
 
@@ -299,8 +292,8 @@ class TaskPlanner(object):
             return None
         wait = float(self.config['checkpoint_wait'])
         try:
-            rospy.wait_for_service('get_checkpoint', timeout=wait)
-            resp = rospy.ServiceProxy('get_checkpoint', GetCheckpoint)(robot=self.robot_name)
+            rospy.wait_for_service(names.GET_CHECKPOINT, timeout=wait)
+            resp = rospy.ServiceProxy(names.GET_CHECKPOINT, GetCheckpoint)(robot=self.robot_name)
         except (rospy.ROSException, rospy.ServiceException) as exc:
             rospy.logwarn('task_planner: no checkpoint read (%s): starting a new mission', exc)
             return None
@@ -328,8 +321,8 @@ class TaskPlanner(object):
     def _recorded(self, mission_id):
         """The pick records of `mission_id` already in the store (get_mission_records)."""
         try:
-            rospy.wait_for_service('get_mission_records', timeout=float(self.config['checkpoint_wait']))
-            resp = rospy.ServiceProxy('get_mission_records', GetMissionRecords)(mission_id=mission_id)
+            rospy.wait_for_service(names.GET_MISSION_RECORDS, timeout=float(self.config['checkpoint_wait']))
+            resp = rospy.ServiceProxy(names.GET_MISSION_RECORDS, GetMissionRecords)(mission_id=mission_id)
         except (rospy.ROSException, rospy.ServiceException) as exc:
             rospy.logwarn('task_planner: the records of mission %s cannot be read (%s)', mission_id, exc)
             return []
@@ -342,7 +335,7 @@ class TaskPlanner(object):
                     for r in records]
         plan = checkpoint_lib.resume_plan(snap, recorded, float(self.config['resume_skip_tolerance']))
         self.recorder.restore([(r.picking_point, r.target_id, recorded[i][2],
-                                _OUTCOME_NAMES.get(r.outcome, mission_lib.OUTCOME_FAILED), r.reason,
+                                mission_lib.OUTCOME_NAMES.get(r.outcome, mission_lib.OUTCOME_FAILED), r.reason,
                                 r.cycle_time) for i, r in enumerate(records)],
                               points_visited=max(snap.point_index, 0))
         self.checkpoints.restore(snap)
@@ -369,7 +362,7 @@ class TaskPlanner(object):
         except Exception as exc:  # noqa: BLE001 - without it nothing overlaps, the mission runs
             rospy.logerr('task_planner: no robot geometry for the pipelined schedule (%s): every '
                          'step runs in the paper order', exc)
-        rospy.Subscriber('joint_states', JointState, self._joints_cb, queue_size=10)
+        rospy.Subscriber(names.JOINT_STATES, JointState, self._joints_cb, queue_size=10)
         rospy.loginfo('task_planner: pipelined schedule (arm moves %s)',
                       'concurrent' if self.config['concurrent_arm_moves'] else 'taking turns')
 
@@ -396,7 +389,7 @@ class TaskPlanner(object):
         if points is None and self._plan is not None:
             points = self._plan
         if points is None:
-            track = rospy.get_param('track/picking_points', None)
+            track = rospy.get_param(names.TRACK_PICKING_POINTS, None)
             if track is None:
                 raise ValueError('no picking points: neither ~picking_points nor track/picking_points is set')
             points = list(range(len(track)))
@@ -492,8 +485,8 @@ class TaskPlanner(object):
             for attempt in (0, 1):
                 try:
                     if self._halt is None:
-                        rospy.wait_for_service('halt_all', timeout=2.0)
-                        self._halt = rospy.ServiceProxy('halt_all', Trigger, persistent=True)
+                        rospy.wait_for_service(names.HALT_ALL, timeout=2.0)
+                        self._halt = rospy.ServiceProxy(names.HALT_ALL, Trigger, persistent=True)
                     resp = self._halt()
                     return resp.success, resp.message
                 except (rospy.ROSException, rospy.ServiceException) as exc:
@@ -514,7 +507,7 @@ class TaskPlanner(object):
         if record is None:
             return
         msg = PickRecord(mission_id=self.mission_id, picking_point=int(record.picking_point),
-                         target_id=int(record.target_id), outcome=_OUTCOME_CODES[record.outcome],
+                         target_id=int(record.target_id), outcome=mission_lib.OUTCOME_CODES[record.outcome],
                          reason=record.reason, state_names=list(record.state_names),
                          state_durations=list(record.state_durations), cycle_time=record.cycle_time,
                          stamp=rospy.Time.now())

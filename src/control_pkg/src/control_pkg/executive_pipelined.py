@@ -81,7 +81,7 @@ class PipelinedGraph(_Graph):
     def __init__(self, context):
         _Graph.__init__(self, context, _PipelinedCallbacks(context))
         if context.gate is None:
-            context.gate = MoveGate(per_arm=self.cfg.get('concurrent_arm_moves', False))
+            context.gate = MoveGate(per_arm=self.cfg['concurrent_arm_moves'])
         self.gate = context.gate
 
     # --- the right arm: suction, the pull solved ------------------------------------------------
@@ -100,8 +100,8 @@ class PipelinedGraph(_Graph):
                              'succeeded': 'CHOOSE_PULL' if self.pulls else 'succeeded'})
             if self.pulls:
                 add('CHOOSE_PULL', ChoosePull(
-                    self.context, self.pulls, float(cfg.get('pull_clearance', 0.0)),
-                    float(cfg['peduncle_gap']), float(cfg.get('cut_clearance', 0.01)),
+                    self.context, self.pulls, float(cfg['pull_clearance']),
+                    float(cfg['peduncle_gap']), float(cfg['cut_clearance']),
                     clear_key='pull_goal'),
                     transitions={'pull': 'DO_KINEMATICS_PULL', 'none': 'succeeded'})
                 # a pull the arm cannot make is not an error: the fruit is cut where it hangs
@@ -251,7 +251,7 @@ class _PipelinedCallbacks(_Callbacks):
         cfg = context.config
         self.home_left = tuple(float(v) for v in cfg['home']['left'])
         self.box_right = tuple(float(v) for v in cfg['collection_box_right'])
-        self.margin = float(cfg.get('overlap_margin', 0.0))
+        self.margin = float(cfg['overlap_margin'])
 
     # --- goals and results ---------------------------------------------------------------------
     def pull_solution(self, ud, status, result):

@@ -168,8 +168,8 @@ class HarvestActionState(SimpleActionState):
     wait counts in its time) and gives it back when it ends.
     """
 
-    def __init__(self, context, label, action_name, action_spec, retries=0, exec_timeout=30.0,
-                 server_wait_timeout=5.0, gate=None, gate_arm=None, **kwargs):
+    def __init__(self, context, label, action_name, action_spec, retries, exec_timeout,
+                 server_wait_timeout, gate=None, gate_arm=None, **kwargs):
         SimpleActionState.__init__(
             self, action_name, action_spec,
             exec_timeout=rospy.Duration(exec_timeout),

@@ -9,12 +9,20 @@ import json
 import math
 import threading
 
-OUTCOME_PICKED = 'picked'
-OUTCOME_UNREACHABLE = 'unreachable'
-OUTCOME_LOST = 'lost'
-OUTCOME_FAILED = 'failed'
-OUTCOME_DROPPED = 'dropped'     # cut, then lost on the way to the box (vacuum lost while carrying)
-OUTCOMES = (OUTCOME_PICKED, OUTCOME_UNREACHABLE, OUTCOME_LOST, OUTCOME_FAILED, OUTCOME_DROPPED)
+from harvest_msgs.msg import PickRecord
+
+#: the one outcome enum: harvest_msgs/PickRecord's OUTCOME_* constants (the wire contract); a
+#: fruit's outcome here is the constant's name in lower case (OUTCOME_PICKED = 0 -> 'picked')
+OUTCOME_NAMES = dict((getattr(PickRecord, c), c[len('OUTCOME_'):].lower())
+                     for c in dir(PickRecord) if c.startswith('OUTCOME_'))
+OUTCOME_CODES = dict((name, code) for code, name in OUTCOME_NAMES.items())
+OUTCOME_PICKED = OUTCOME_NAMES[PickRecord.OUTCOME_PICKED]
+OUTCOME_UNREACHABLE = OUTCOME_NAMES[PickRecord.OUTCOME_UNREACHABLE]
+OUTCOME_LOST = OUTCOME_NAMES[PickRecord.OUTCOME_LOST]
+OUTCOME_FAILED = OUTCOME_NAMES[PickRecord.OUTCOME_FAILED]
+OUTCOME_DROPPED = OUTCOME_NAMES[PickRecord.OUTCOME_DROPPED]     # cut, then lost on the way to the box
+#: every outcome, in the order of their codes (the summary's counts come in this order)
+OUTCOMES = tuple(OUTCOME_NAMES[code] for code in sorted(OUTCOME_NAMES))
 #: the state label a fruit's record shows where an emergency stop cut its attempt short (0 s)
 STOP_STATE = 'DO_STOP'
 #: the reason of a fruit whose attempt an emergency stop cut short and that was not tried again
@@ -273,21 +281,20 @@ class MissionRecorder(object):
         return totals
 
     def _totals(self):
-        return {
+        totals = {
             'mission_id': self.mission_id,
             'points_visited': self.points_visited,
             'attempted': len(self.fruits),
-            'picked': self.count(OUTCOME_PICKED),
-            'unreachable': self.count(OUTCOME_UNREACHABLE),
-            'lost': self.count(OUTCOME_LOST),
-            'failed': self.count(OUTCOME_FAILED),
-            'dropped': self.count(OUTCOME_DROPPED),
-            'mean_cycle_time': finite_or_none(self.mean_cycle_time()),     # None: nothing picked
-            'duration': finite_or_none((self.end_time - self.start_time)
-                                       if (self.start_time is not None and self.end_time is not None)
-                                       else None),
-            'errors': list(self.errors),
         }
+        totals.update((outcome, self.count(outcome)) for outcome in OUTCOMES)   # 'picked': n, ...
+        totals.update([
+            ('mean_cycle_time', finite_or_none(self.mean_cycle_time())),     # None: nothing picked
+            ('duration', finite_or_none((self.end_time - self.start_time)
+                                        if (self.start_time is not None and self.end_time is not None)
+                                        else None)),
+            ('errors', list(self.errors)),
+        ])
+        return totals
 
 
 def finite_or_none(value):

@@ -23,6 +23,8 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from harvest_msgs.msg import StartAction, StartFeedback, StartResult
 from std_msgs.msg import Empty
 
+from control_pkg import names
+
 COMPONENT_TYPES = ('action', 'topic', 'status', 'subscriber')
 #: wall seconds between checks of a ROS-time deadline while waiting for a message (the message
 #: itself wakes the wait at once)
@@ -75,7 +77,7 @@ class SelfTestServer(object):
             for comp in self.components:
                 comp['timeout'] = min(comp['timeout'], cap)
         self._master = rosgraph.Master(rospy.get_name())
-        self._server = actionlib.SimpleActionServer('self_test', StartAction, execute_cb=self.execute,
+        self._server = actionlib.SimpleActionServer(names.SELF_TEST, StartAction, execute_cb=self.execute,
                                                     auto_start=False)
         self._server.start()
         rospy.loginfo('self_test_server: %d components configured', len(self.components))

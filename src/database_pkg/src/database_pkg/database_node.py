@@ -38,18 +38,10 @@ from harvest_msgs.srv import (GetCheckpoint, GetCheckpointResponse, GetMissionRe
                               GetMissionRecordsResponse)
 
 from database_pkg import convert
+from database_pkg import names
 from database_pkg.store import LOCAL_TABLES, TABLES, SchemaVersionError, Store, StoreError
 
 DEFAULT_DB_PATH = '~/.ros/harvest/harvest.db'
-
-# Names (relative; wired by launch remaps).
-SPATIAL_TEMPORAL_ACTION = 'spatial_temporal'
-IMAGE_PROCESSING_ACTION = 'image_processing'
-PICK_RECORDS_TOPIC = 'mission/pick_records'
-EVENTS_TOPIC = 'mission/events'
-GET_MISSION_RECORDS_SERVICE = 'get_mission_records'
-CHECKPOINTS_TOPIC = 'mission/checkpoints'
-GET_CHECKPOINT_SERVICE = 'get_checkpoint'
 
 # Diagnostics thresholds.
 DISK_FREE_WARN_BYTES = 500 * 1024 * 1024
@@ -138,8 +130,8 @@ class DatabaseNode(object):
         self._updater.setHardwareID('sqlite:%s' % self._db_path)
         self._updater.add('Local database', self._diagnose)
 
-        self._ip = actionlib.SimpleActionClient(IMAGE_PROCESSING_ACTION, ImageProcessingAction)
-        self._server = actionlib.SimpleActionServer(SPATIAL_TEMPORAL_ACTION, SpatialTemporalAction,
+        self._ip = actionlib.SimpleActionClient(names.IMAGE_PROCESSING, ImageProcessingAction)
+        self._server = actionlib.SimpleActionServer(names.SPATIAL_TEMPORAL, SpatialTemporalAction,
                                                     auto_start=False)
         self._server.register_goal_callback(self._wake)
         self._server.register_preempt_callback(self._wake)
@@ -149,15 +141,15 @@ class DatabaseNode(object):
         self._server.start()
 
         self._subs = [
-            rospy.Subscriber(PICK_RECORDS_TOPIC, PickRecord, self._on_pick_record,
+            rospy.Subscriber(names.PICK_RECORDS, PickRecord, self._on_pick_record,
                              queue_size=queue_size),
-            rospy.Subscriber(EVENTS_TOPIC, MissionEvent, self._on_event, queue_size=queue_size),
-            rospy.Subscriber(CHECKPOINTS_TOPIC, Checkpoint, self._on_checkpoint,
+            rospy.Subscriber(names.EVENTS, MissionEvent, self._on_event, queue_size=queue_size),
+            rospy.Subscriber(names.CHECKPOINTS, Checkpoint, self._on_checkpoint,
                              queue_size=queue_size),
         ]
-        self._service = rospy.Service(GET_MISSION_RECORDS_SERVICE, GetMissionRecords,
+        self._service = rospy.Service(names.GET_MISSION_RECORDS, GetMissionRecords,
                                       self._on_get_records)
-        self._checkpoint_service = rospy.Service(GET_CHECKPOINT_SERVICE, GetCheckpoint,
+        self._checkpoint_service = rospy.Service(names.GET_CHECKPOINT, GetCheckpoint,
                                                  self._on_get_checkpoint)
         self._timer = rospy.Timer(rospy.Duration(DIAGNOSTICS_PERIOD_S),
                                   lambda _event: self._updater.update())

@@ -6,7 +6,8 @@ by a newer version raises ``SchemaVersionError`` without touching the file. Rele
 must never be edited: add a new one at the end of ``MIGRATIONS``.
 """
 
-# PickRecord.OUTCOME_* and Tomato.STAGE_* (harvest_msgs), repeated here so this module needs no ROS.
+# PickRecord.OUTCOME_* and Tomato.STAGE_* (harvest_msgs), repeated here so this module needs no ROS
+# (network_pkg's uploader opens the store without it); test/test_schema_codes.py checks the copies.
 OUTCOMES = (0, 1, 2, 3, 4)
 RIPENESS_STAGES = (0, 1, 2, 3)
 

@@ -8,8 +8,11 @@ helpers turn a local day into the Unix time at which work starts and pick a sigh
 import datetime
 import math
 
-OUTCOME_PICKED = 0          # harvest_msgs/PickRecord.OUTCOME_PICKED
+# The pick outcome codes of harvest_msgs/PickRecord.OUTCOME_*, copied (the farm server runs off the
+# robot, without ROS); the one copy in farm_server: schemas.py takes the API's bounds from it, and
+# test_record_schema checks it against the message's constants.
 OUTCOME_NAMES = {0: 'picked', 1: 'unreachable', 2: 'lost', 3: 'failed', 4: 'dropped'}
+OUTCOME_PICKED = 0
 DEFAULT_ROW = 'default'
 DAY = 86400.0
 

@@ -10,6 +10,8 @@ from typing import List, Optional
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
+from farm_server.fusion_config import OUTCOME_NAMES
+
 __all__ = ['Mission', 'Observation', 'PickRecord', 'Event', 'UploadBatch', 'UploadResult',
            'PlanPoint', 'Plan']
 
@@ -75,8 +77,9 @@ class PickRecord(BaseModel):
     y: float
     z: float
     frame_id: str = _text(100, 1)
-    outcome: int = Field(ge=0, le=4, description='PickRecord.OUTCOME_*: 0 picked, 1 '
-                                                 'unreachable, 2 lost, 3 failed, 4 dropped')
+    outcome: int = Field(ge=min(OUTCOME_NAMES), le=max(OUTCOME_NAMES),
+                         description='PickRecord.OUTCOME_*: ' + ', '.join(
+                             '%d %s' % item for item in sorted(OUTCOME_NAMES.items())))
     reason: str = _text(2000)
     state_names: List[str] = Field(max_length=100)
     state_durations: List[float] = Field(max_length=100)

@@ -29,11 +29,11 @@ import rospy
 from diagnostic_msgs.msg import DiagnosticStatus
 from std_msgs.msg import Int32MultiArray
 
+from network_pkg import names
 from network_pkg.outbox import TABLE_ORDER, Backoff, FarmClient, Outbox, UploadError, Uploader
 
 __all__ = ['UploaderNode', 'UploaderNodeError']
 
-PLAN_TOPIC = 'plan/picking_points'
 DIAGNOSTICS_PERIOD_S = 1.0
 DEFAULT_DB = os.path.join('~', '.ros', 'harvest', 'harvest.db')
 UNAUTHORIZED = 401
@@ -93,7 +93,7 @@ class UploaderNode(object):
         self._stop = threading.Event()
         self._wake = threading.Event()
         self._started = time.time()
-        self.plan_pub = rospy.Publisher(PLAN_TOPIC, Int32MultiArray, queue_size=1, latch=True)
+        self.plan_pub = rospy.Publisher(names.PLAN, Int32MultiArray, queue_size=1, latch=True)
 
         self._updater = diagnostic_updater.Updater()
         self._updater.setHardwareID('farm:%s' % self.server_url)

@@ -25,6 +25,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from harvest_msgs.msg import (KinematicsActionGoal, KinematicsActionResult, MissionEvent, MoveRobotActionGoal,
                               MoveRobotActionResult, PickRecord)
 from harvest_description import robot_config
+from visualization_pkg import names
 from visualization_pkg.arm_geometry import ArmGeometry
 
 OUTCOME_RGBA = {PickRecord.OUTCOME_PICKED: (0.18, 0.8, 0.25, 0.9), PickRecord.OUTCOME_UNREACHABLE: (1.0, 0.55, 0.0, 0.9),
@@ -55,13 +56,13 @@ class MissionMarkers(object):
         self.planned = {}           # arm -> (goal id, positions)
         self.records = []
         self.state = ''
-        self._pub = rospy.Publisher('mission/markers', MarkerArray, queue_size=1, latch=True)
-        rospy.Subscriber('kinematics/goal', KinematicsActionGoal, self._kin_goal, queue_size=10)
-        rospy.Subscriber('kinematics/result', KinematicsActionResult, self._kin_result, queue_size=10)
-        rospy.Subscriber('move_robot/goal', MoveRobotActionGoal, self._move_goal, queue_size=10)
-        rospy.Subscriber('move_robot/result', MoveRobotActionResult, self._move_result, queue_size=10)
-        rospy.Subscriber('mission/pick_records', PickRecord, self._record, queue_size=50)
-        rospy.Subscriber('mission/events', MissionEvent, self._event, queue_size=50)
+        self._pub = rospy.Publisher(names.MARKERS, MarkerArray, queue_size=1, latch=True)
+        rospy.Subscriber(names.KINEMATICS + '/goal', KinematicsActionGoal, self._kin_goal, queue_size=10)
+        rospy.Subscriber(names.KINEMATICS + '/result', KinematicsActionResult, self._kin_result, queue_size=10)
+        rospy.Subscriber(names.MOVE_ROBOT + '/goal', MoveRobotActionGoal, self._move_goal, queue_size=10)
+        rospy.Subscriber(names.MOVE_ROBOT + '/result', MoveRobotActionResult, self._move_result, queue_size=10)
+        rospy.Subscriber(names.PICK_RECORDS, PickRecord, self._record, queue_size=50)
+        rospy.Subscriber(names.EVENTS, MissionEvent, self._event, queue_size=50)
         self.publish()
 
     # --- callbacks (each republishes the whole set; rospy runs them one topic at a time) ------------

@@ -7,6 +7,7 @@ from python_qt_binding.QtGui import QFont
 from python_qt_binding.QtWidgets import (QAction, QApplication, QDockWidget, QLabel, QMainWindow, QSizePolicy,
                                          QToolBar, QWidget)
 
+from visualization_pkg import names
 from visualization_pkg.dashboard import executive_state as es
 from visualization_pkg.dashboard import rviz_panel
 from visualization_pkg.dashboard.console_panel import ConsolePanel
@@ -23,10 +24,10 @@ from visualization_pkg.dashboard.smach_panel import StateMachinePanel
 SETTINGS_VERSION = 1
 
 DEFAULT_CONFIG = {
-    'executive': 'task_planner',
-    'introspection_server': 'harvest_executive',
-    'estop_topic': 'emergency_stop',
-    'halt_service': 'halt_all',
+    'executive': names.EXECUTIVE,
+    'introspection_server': names.INTROSPECTION_SERVER,
+    'estop_topic': names.EMERGENCY_STOP,
+    'halt_service': names.HALT_ALL,
     'actions': {'move_base': 'move_base', 'move_robot': 'move_robot', 'end_effector': 'end_effector'},
     'action_timeout': 60.0,
     'image_topics': [{'title': t, 'topic': n} for t, n in DEFAULT_TOPICS],

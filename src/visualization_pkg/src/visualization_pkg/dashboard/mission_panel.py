@@ -12,11 +12,15 @@ from python_qt_binding.QtWidgets import (QAbstractItemView, QHeaderView, QLabel,
 from std_msgs.msg import String
 
 from harvest_msgs.msg import MissionEvent, PickRecord
+from visualization_pkg import names
 from visualization_pkg.dashboard import mission_stats, operator_events
 from visualization_pkg.dashboard.qt_common import Panel
 
-OUTCOME_COLOURS = {'picked': QColor('#2e7d32'), 'unreachable': QColor('#ef6c00'), 'lost': QColor('#8e24aa'),
-                   'failed': QColor('#c62828'), 'dropped': QColor('#6d4c41')}
+#: colour of each outcome, by its name (mission_stats.OUTCOMES)
+OUTCOME_COLOURS = dict((mission_stats.outcome_name(code), QColor(colour)) for code, colour in (
+    (PickRecord.OUTCOME_PICKED, '#2e7d32'), (PickRecord.OUTCOME_UNREACHABLE, '#ef6c00'),
+    (PickRecord.OUTCOME_LOST, '#8e24aa'), (PickRecord.OUTCOME_FAILED, '#c62828'),
+    (PickRecord.OUTCOME_DROPPED, '#6d4c41')))
 STAGE_PALETTE = ['#42a5f5', '#66bb6a', '#ffa726', '#ab47bc', '#26c6da', '#ef5350', '#8d6e63', '#d4e157',
                  '#5c6bc0', '#ec407a', '#78909c', '#26a69a']
 
@@ -42,8 +46,8 @@ class CycleTimePlot(QWidget):
         self.setMinimumHeight(160)
 
     def stage_colour(self, name):
-        names = self.stats.stage_names
-        index = names.index(name) if name in names else len(names)
+        stages = self.stats.stage_names
+        index = stages.index(name) if name in stages else len(stages)
         return QColor(STAGE_PALETTE[index % len(STAGE_PALETTE)])
 
     def _legend_rows(self, p):
@@ -183,9 +187,9 @@ class MissionPanel(Panel):
 
     def start(self):
         Panel.start(self)
-        self.subscribe('mission/pick_records', PickRecord, self.record_received, queue_size=100)
-        self.subscribe('mission/events', MissionEvent, self.event_received, queue_size=100)
-        self.subscribe('mission/summary', String, self.summary_received)
+        self.subscribe(names.PICK_RECORDS, PickRecord, self.record_received, queue_size=100)
+        self.subscribe(names.EVENTS, MissionEvent, self.event_received, queue_size=100)
+        self.subscribe(names.SUMMARY, String, self.summary_received)
 
     def on_record(self, msg):
         p = msg.pick_point.point

@@ -4,7 +4,18 @@ Fed with plain values (the panel unpacks harvest_msgs/PickRecord and MissionEven
 """
 import json
 
-OUTCOMES = ('picked', 'unreachable', 'lost', 'failed', 'dropped')   # PickRecord.OUTCOME_* = index
+from harvest_msgs.msg import PickRecord
+
+#: the outcome names, indexed by code: PickRecord's OUTCOME_* constants (the one source) in lower
+#: case without the prefix (OUTCOME_PICKED = 0 -> OUTCOMES[0] = 'picked')
+_CODES = dict((getattr(PickRecord, c), c[len('OUTCOME_'):].lower())
+              for c in dir(PickRecord) if c.startswith('OUTCOME_'))
+OUTCOMES = tuple(_CODES[code] for code in range(len(_CODES)))
+
+
+def outcome_name(code):
+    """The name of a PickRecord outcome code ('outcome <code>' for one this build does not know)."""
+    return OUTCOMES[code] if 0 <= code < len(OUTCOMES) else 'outcome %d' % code
 
 
 class Fruit(object):
@@ -53,7 +64,7 @@ class MissionStats(object):
     def add_record(self, mission_id, picking_point, target_id, outcome, reason, state_names,
                    state_durations, cycle_time, position=(0.0, 0.0, 0.0)):
         self._mission(mission_id)
-        name = OUTCOMES[outcome] if 0 <= outcome < len(OUTCOMES) else 'outcome %d' % outcome
+        name = outcome_name(outcome)
         stages = list(zip(state_names, [float(d) for d in state_durations]))
         for s, _ in stages:
             if s not in self.stage_names:

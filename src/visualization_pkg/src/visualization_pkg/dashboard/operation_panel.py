@@ -31,6 +31,7 @@ from trajectory_msgs.msg import JointTrajectoryPoint
 from harvest_msgs.msg import (EndEffectorAction, EndEffectorGoal, MoveBaseAction, MoveBaseGoal, MoveRobotAction,
                               MoveRobotGoal)
 from harvest_description import robot_config
+from visualization_pkg import names
 from visualization_pkg.dashboard import executive_state as es
 from visualization_pkg.dashboard import manual_ops
 from visualization_pkg.dashboard.operator_events import OperatorEventPublisher
@@ -84,8 +85,8 @@ class OperationPanel(Panel):
     joints_received = Signal(object)
     summary_received = Signal(object)
 
-    def __init__(self, executive='task_planner', server='harvest_executive', estop_topic='emergency_stop',
-                 halt_service='halt_all', actions=None, action_timeout=60.0, robot_yaml='', events=None,
+    def __init__(self, executive=names.EXECUTIVE, server=names.INTROSPECTION_SERVER,
+                 estop_topic=names.EMERGENCY_STOP, halt_service=names.HALT_ALL, actions=None, action_timeout=60.0, robot_yaml='', events=None,
                  parent=None):
         Panel.__init__(self, parent)
         loadUi(resource_path('operation.ui'), self)
@@ -177,15 +178,15 @@ class OperationPanel(Panel):
     def start(self):
         Panel.start(self)
         self._estop_pub = rospy.Publisher(self.estop_topic, Bool, queue_size=1, latch=True)
-        self.subscribe(self.server + '/smach/container_status', SmachContainerStatus, self.root_status, 50)
-        self.subscribe(self.server + '/smach/container_structure', SmachContainerStructure, self.structure_seen, 50)
-        self.subscribe(self.executive + '/state', String, self.state_text)
-        self.subscribe('joint_states', JointState, self.joints_received, 5)
-        self.subscribe('mission/summary', String, self.summary_received)
+        self.subscribe(self.server + '/' + names.SMACH_STATUS, SmachContainerStatus, self.root_status, 50)
+        self.subscribe(self.server + '/' + names.SMACH_STRUCTURE, SmachContainerStructure, self.structure_seen, 50)
+        self.subscribe(self.executive + '/' + names.EXECUTIVE_STATE, String, self.state_text)
+        self.subscribe(names.JOINT_STATES, JointState, self.joints_received, 5)
+        self.subscribe(names.SUMMARY, String, self.summary_received)
         self.clients = {'move_base': actionlib.ActionClient(self.actions['move_base'], MoveBaseAction),
                         'move_robot': actionlib.ActionClient(self.actions['move_robot'], MoveRobotAction),
                         'end_effector': actionlib.ActionClient(self.actions['end_effector'], EndEffectorAction)}
-        self.run_in_background('points', lambda: rospy.get_param('track/picking_points', []))
+        self.run_in_background('points', lambda: rospy.get_param(names.TRACK_PICKING_POINTS, []))
         if self._own_events:
             self.events.start()
         self._timer.start()
@@ -277,7 +278,7 @@ class OperationPanel(Panel):
 
     def _call_estop(self):
         out = []
-        for name in (self.executive + '/emergency_stop', self.halt_service):
+        for name in (self.executive + '/' + names.EXECUTIVE_EMERGENCY_STOP, self.halt_service):
             out.append(self._trigger(name, 1.0))
         return out
 
@@ -296,7 +297,7 @@ class OperationPanel(Panel):
             self.report('Resume refused: the mission is not paused', ok=False)
             return False
         self._estop_requested = False
-        self.run_in_background('resume', self._trigger, self.executive + '/resume', 2.0)
+        self.run_in_background('resume', self._trigger, self.executive + '/' + names.EXECUTIVE_RESUME, 2.0)
         self.report('Resume requested')
         return True
 
@@ -305,7 +306,7 @@ class OperationPanel(Panel):
         if mode in (es.RUNNING, es.PAUSED):
             self.report('Start refused: a mission is already %s' % mode, ok=False)
             return False
-        self.run_in_background('start', self._trigger, self.executive + '/start', 2.0)
+        self.run_in_background('start', self._trigger, self.executive + '/' + names.EXECUTIVE_START, 2.0)
         self.report('Start mission requested')
         return True
 

@@ -11,6 +11,8 @@ outcome accepted / refused / failed / ok.
 """
 import time
 
+from visualization_pkg import names
+
 KIND = 'operator'
 
 
@@ -41,7 +43,7 @@ def event_fields(tracker, action, outcome, text):
 class OperatorEventPublisher(object):
     """ROS glue: follows the mission id and publishes operator events (thread-safe publish)."""
 
-    def __init__(self, topic='mission/events', records_topic='mission/pick_records'):
+    def __init__(self, topic=names.EVENTS, records_topic=names.PICK_RECORDS):
         self.topic = topic
         self.records_topic = records_topic
         self.tracker = MissionIdTracker()

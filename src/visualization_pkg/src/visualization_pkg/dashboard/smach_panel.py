@@ -14,6 +14,7 @@ from python_qt_binding.QtWidgets import (QCheckBox, QComboBox, QGraphicsPathItem
                                          QVBoxLayout, QWidget)
 from smach_msgs.msg import SmachContainerStatus, SmachContainerStructure
 
+from visualization_pkg import names
 from visualization_pkg.dashboard import smach_model, userdata
 from visualization_pkg.dashboard.qt_common import Panel
 
@@ -61,7 +62,7 @@ class StateMachinePanel(Panel):
     structure_received = Signal(object)
     status_received = Signal(object)
 
-    def __init__(self, server='harvest_executive', parent=None):
+    def __init__(self, server=names.INTROSPECTION_SERVER, parent=None):
         Panel.__init__(self, parent)
         self.server = server.rstrip('/')
         self.model = smach_model.SmachModel()
@@ -142,9 +143,9 @@ class StateMachinePanel(Panel):
     # --- ROS --------------------------------------------------------------------------------------
     def start(self):
         Panel.start(self)
-        self.subscribe(self.server + '/smach/container_structure', SmachContainerStructure,
+        self.subscribe(self.server + '/' + names.SMACH_STRUCTURE, SmachContainerStructure,
                        self.structure_received, queue_size=50)
-        self.subscribe(self.server + '/smach/container_status', SmachContainerStatus,
+        self.subscribe(self.server + '/' + names.SMACH_STATUS, SmachContainerStatus,
                        self.status_received, queue_size=50)
 
     def on_structure(self, msg):
