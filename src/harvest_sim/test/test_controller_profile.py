@@ -82,3 +82,15 @@ def test_moving_start_is_continuous_and_ends_at_target(p0, v0, p1, vmax, amax):
         prev = seg
     assert prev is None or prev.end()[0] == pytest.approx(p1, abs=1e-6)
     assert prev is None or abs(prev.end()[1]) < 1e-9
+
+
+@FAST
+@given(positions, speeds, accels)
+def test_the_robots_move_time_is_the_simulated_drives(distance, vmax, amax):
+    # motion_pkg budgets a move's time with its own rest-to-rest formula (motion_goals), and
+    # bench_mission's lower bound uses that one: it must be the time the simulated drives take
+    from motion_pkg.motion_goals import move_duration as robot_move_duration
+    assert robot_move_duration(distance, vmax, amax) == pytest.approx(
+        move_duration(distance, vmax, amax), rel=1e-12, abs=1e-12)
+    assert plan_move(0.0, 0.0, 0.0, distance, vmax, amax).duration == pytest.approx(
+        robot_move_duration(distance, vmax, amax), rel=1e-9, abs=1e-9)
