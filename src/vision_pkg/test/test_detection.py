@@ -363,17 +363,24 @@ def test_red_fruit_with_a_leaf_across_its_edge_keeps_its_own_circle():
     assert det.stage == detection.STAGE_RED
 
 
-def test_pale_red_grades_pink_and_saturated_red_grades_red():
-    # the colour chart's pink is a light, pale red: the same red hue at low saturation is not
-    # ripe (a hand in the shade, saturation 120-130, graded "red" before)
+def _hsv_pixel(h, s, v):
+    return cv2.cvtColor(np.uint8([[[h, s, v]]]), cv2.COLOR_HSV2BGR).reshape(1, 3)
+
+
+def test_pale_red_in_the_shade_grades_pink_and_saturated_red_grades_red():
+    # a red hue at low saturation in the shade is not ripe skin (a hand in the shade, saturation
+    # 119-127, value 65-81, graded "red" before); a red fruit in the same shade is saturated
     det = TomatoDetector()
-    deep = cv2.cvtColor(np.uint8([[[3, 210, 180]]]), cv2.COLOR_HSV2BGR).reshape(1, 3)
-    pale = cv2.cvtColor(np.uint8([[[3, 115, 180]]]), cv2.COLOR_HSV2BGR).reshape(1, 3)
-    assert stage_of(det.score_of(deep)[0]) == detection.STAGE_RED
-    assert stage_of(det.score_of(pale)[0]) == detection.STAGE_PINK
+    assert stage_of(det.score_of(_hsv_pixel(3, 210, 75))[0]) == detection.STAGE_RED
+    assert stage_of(det.score_of(_hsv_pixel(3, 120, 75))[0]) == detection.STAGE_PINK
+    # in bright light the red side keeps pale_sat's gentler pull (a red fruit's lit skin next
+    # to its highlight is paler), blended in between
+    bright = det.score_of(_hsv_pixel(3, 120, 200))[0]
+    middle = det.score_of(_hsv_pixel(3, 120, 135))[0]
+    assert stage_of(bright) == detection.STAGE_RED
+    assert det.score_of(_hsv_pixel(3, 120, 75))[0] < middle < bright
     # the red side's rule leaves green alone: a green of the same saturation stays green
-    green = cv2.cvtColor(np.uint8([[[40, 115, 180]]]), cv2.COLOR_HSV2BGR).reshape(1, 3)
-    assert stage_of(det.score_of(green)[0]) == detection.STAGE_GREEN
+    assert stage_of(det.score_of(_hsv_pixel(40, 120, 75))[0]) == detection.STAGE_GREEN
 
 
 def test_circle_over_visible_background_is_rejected():

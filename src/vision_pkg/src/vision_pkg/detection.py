@@ -110,7 +110,9 @@ DEFAULTS = {
     'score_values': [1.0, 0.88, 0.7, 0.55, 0.42, 0.3, 0.18, 0.06, 0.0],
     'pale_sat': 130,            # pixels less saturated than this drift towards score 0.5
     'pale_sat_red_low': 90,     # red-side pixels (ripeness > 0.5) drift to 0.5 linearly from
-    'pale_sat_red': 170,        # ... this saturation (score 0.5) up to this one (pale red: pink)
+    'pale_sat_red': 170,        # ... this saturation (score 0.5) up to this one (pale red: pink),
+    'shade_val_low': 110,       # ... in the shade: HSV value up to this; from shade_val_high up
+    'shade_val_high': 160,      # ... (0: everywhere) the red side has pale_sat's pull, blended
     'skin_min_ripeness': 0.25,  # pass 1: pixels graded below this (green) are not skin
 }
 
@@ -169,6 +171,12 @@ class TomatoDetector(RegionSplitter):
         pale = np.clip(sat / max(float(p['pale_sat']), 1.0), 0.0, 1.0)
         low = min(float(p['pale_sat_red_low']), float(p['pale_sat_red']) - 1.0)
         pale_red = np.clip((sat - low) / max(float(p['pale_sat_red']) - low, 1.0), 0.0, 1.0)
+        self._shade = None
+        if p['shade_val_high'] > 0:
+            # two tables: bright pixels keep the linear pull of pale_sat on both sides, dark
+            # ones get the red side's stronger one; pixel_ripeness blends them by HSV value
+            bright = 0.5 + (ripe[:, None] - 0.5) * pale[None, :]
+            self._shade = bright.astype(np.float32)
         pale = np.where(ripe[:, None] > 0.5, pale_red[None, :], pale[None, :])
         table = 0.5 + (ripe[:, None] - 0.5) * pale
         return table.astype(np.float32)
@@ -285,7 +293,14 @@ class TomatoDetector(RegionSplitter):
     def pixel_ripeness(self, hsv_pixels):
         """Per-pixel ripeness (0..1) of Nx3 uint8 HSV pixels."""
         hsv_pixels = np.asarray(hsv_pixels, dtype=np.uint8).reshape(-1, 3)
-        return self._lut[np.minimum(hsv_pixels[:, 0], 179), hsv_pixels[:, 1]]
+        hue, sat = np.minimum(hsv_pixels[:, 0], 179), hsv_pixels[:, 1]
+        dark = self._lut[hue, sat]
+        if self._shade is None:
+            return dark
+        p = self.params
+        low, high = float(p['shade_val_low']), max(float(p['shade_val_high']), p['shade_val_low'] + 1.0)
+        w = np.clip((hsv_pixels[:, 2].astype(np.float32) - low) / (high - low), 0.0, 1.0)
+        return dark + (self._shade[hue, sat] - dark) * w
 
     def _score_pixels(self, hsv_pixels, bgr_pixels):
         """score_of() for pixels whose HSV values are known."""
