@@ -1,6 +1,7 @@
 """Circle fits for fruit outlines, rospy-free: least squares (Kasa), its robust refit, a RANSAC
-arc fit that follows the largest arc of an outline cut by a leaf, and the outline tests the
-detector's hypotheses use (vision_pkg.detection, vision_pkg.regions)."""
+arc fit that follows the largest arc of an outline cut by a leaf, the outline tests the
+detector's hypotheses use (vision_pkg.detection, vision_pkg.regions), and fit_part: the circle of
+a region part's outline on its convex hull, the one the hypotheses compare."""
 import math
 
 import cv2
@@ -136,3 +137,67 @@ def hull_distance(hull, xs, ys):
     offset = (pts * normal.T).sum(1)
     p = np.column_stack([xs, ys]).astype(np.float64)
     return np.abs(p.dot(normal) - offset).min(axis=1)
+
+
+def fit_part(part, outer, peak_r, r_high=3.0):
+    """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
+    lie on its convex hull, radius in [0.8, r_high] x the inscribed radius `peak_r` (+2);
+    residual = median radial misfit / r (1.0 for the fallback)."""
+    part8 = part.astype(np.uint8)
+    # the work is done on the part's bounding box (+1 px): a part of a large cluster is
+    # a small share of its region's crop
+    bx, by, bw, bh = cv2.boundingRect(part8)
+    if bw == 0 or bh == 0:
+        return None
+    x0, y0 = max(bx - 1, 0), max(by - 1, 0)
+    x1, y1 = min(bx + bw + 1, part8.shape[1]), min(by + bh + 1, part8.shape[0])
+    circle = _fit_crop(part8[y0:y1, x0:x1], outer[y0:y1, x0:x1], peak_r, r_high)
+    if circle is None:
+        return None
+    return (circle[0] + x0, circle[1] + y0) + tuple(circle[2:])
+
+
+def _fit_crop(part8, outer, peak_r, r_high):
+    """fit_part() on a crop: part as 0/1 uint8."""
+    ys, xs = np.nonzero((part8 > 0) & outer)
+    moments = cv2.moments(part8, True)
+    if moments['m00'] <= 0:
+        return None
+    mx, my = moments['m10'] / moments['m00'], moments['m01'] / moments['m00']
+    fallback = (mx, my, max(peak_r, math.sqrt(moments['m00'] / math.pi)), 1.0)
+    if len(xs) < 8:
+        return fallback
+    # the hull of a region is the hull of its outline
+    contours = cv2.findContours(part8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)[-2]
+    if not contours:
+        return fallback
+    hull = cv2.convexHull(np.vstack(contours))
+    if hull is None or len(hull) < 3:
+        return fallback
+    on_hull = hull_distance(hull, xs, ys) <= 1.5
+    if on_hull.sum() >= 8:
+        xs, ys = xs[on_hull], ys[on_hull]
+    xs = xs.astype(np.float64)
+    ys = ys.astype(np.float64)
+    r_lo, r_hi = 0.8 * peak_r, r_high * peak_r + 2.0
+    circle = robust_fit_circle(xs, ys)
+    if circle is not None and not r_lo <= circle[2] <= r_hi:
+        circle = None
+    support = count_support(circle, xs, ys) if circle is not None else 0
+    arc = None
+    if support < 0.9 * len(xs):
+        arc = arc_fit_circle(xs, ys, r_lo, r_hi)
+    if arc is not None and count_support(arc, xs, ys) > support:
+        # the outline is partly a straight or concave cut (a leaf or stem in front of the
+        # fruit): the circle that most of the outline follows is the fruit
+        circle = arc
+    if circle is None:
+        return fallback
+    cx, cy, r = circle
+    # the radius must be consistent with the inscribed radius, the centre near the part
+    if r < r_lo or r > r_hi:
+        return fallback
+    if math.hypot(cx - mx, cy - my) > r:
+        return fallback
+    residual = float(np.median(np.abs(np.hypot(xs - cx, ys - cy) - r))) / r
+    return cx, cy, r, residual

@@ -37,7 +37,9 @@ too small are rejected from their statistics before any per-region work, at most
 
 This module holds the parameters, colour (steps 0-2), the passes and grading (4-5); step 3 is
 vision_pkg.regions (RegionSplitter, which TomatoDetector extends), its circle fits
-vision_pkg.circle_fit, and the result type and stages vision_pkg.fruit (re-exported here).
+vision_pkg.circle_fit, the green fruit's surface and outline evidence of step 4
+vision_pkg.surface (RoundSurface), and the result type and stages vision_pkg.fruit (re-exported
+here).
 """
 import math
 
@@ -48,6 +50,7 @@ from vision_pkg.circle_fit import arc_fit_circle, fit_circle, robust_fit_circle 
 from vision_pkg.fruit import (STAGE_GREEN, STAGE_NAMES, STAGE_PINK, STAGE_RED,  # noqa: F401
                               STAGE_THRESHOLDS, STAGE_TURNING, Detection, stage_of)
 from vision_pkg.regions import Frame, RegionSplitter, share_inside
+from vision_pkg.surface import RoundSurface
 
 #: default parameters (ROS params of the same names override them; see config/*.yaml)
 DEFAULTS = {
@@ -132,7 +135,7 @@ def lab_hue_angle(bgr):
     return math.degrees(math.atan2(200.0 * (f[1] - f[2]), 500.0 * (f[0] - f[1])))
 
 
-class TomatoDetector(RegionSplitter):
+class TomatoDetector(RegionSplitter, RoundSurface):
     """Finds tomatoes in BGR images; parameters as in DEFAULTS."""
     def __init__(self, **params):
         unknown = set(params) - set(DEFAULTS)
@@ -249,16 +252,6 @@ class TomatoDetector(RegionSplitter):
                             cv2.inRange(v, int(p['green_val_min']), 255)))
         return ripe, green
 
-    @staticmethod
-    def gradient_maps(gray):
-        """(gx, gy) float32 brightness gradient of a grey image relative to the local mean
-        brightness, so an outline's edge strength does not depend on the exposure."""
-        g = gray.astype(np.float32)
-        bright = cv2.blur(g, (5, 5)) + 12.0
-        gx = cv2.Sobel(g, cv2.CV_32F, 1, 0, ksize=3) / (4.0 * bright)
-        gy = cv2.Sobel(g, cv2.CV_32F, 0, 1, ksize=3) / (4.0 * bright)
-        return gx, gy
-
     def _clean(self, mask, factor=1.0):
         """Opening removes stems, twine and speckle; closing bridges thin gaps on the fruit
         (kernels scaled by `factor` for a smaller image)."""
@@ -374,56 +367,6 @@ class TomatoDetector(RegionSplitter):
                 if all(share_inside(det, o) <= p['max_shared_part'] for o in found):
                     found.append(det)
         return self._merge_fragments(found)
-
-    def _round_fruit_surface(self, frame, cx, cy, r, hsv_px, circle, fill, inside, score):
-        """Surface and outline evidence of a candidate from the strict pass (a green fruit
-        must be told from leaves by more than colour)."""
-        p = self.params
-        support = self.edge_support(frame, cx, cy, r)
-        if self.trace is not None:
-            self.trace.append(dict(
-                cx=cx / frame.scale, cy=cy / frame.scale, r=r / frame.scale, score=score,
-                fill=fill, inside=inside, residual=circle[3] if len(circle) > 3 else 1.0,
-                edges=self.edge_profile(frame, cx, cy, r).tolist(),
-                highlight=float(np.mean((hsv_px[:, 1] < 70) & (hsv_px[:, 2] > 170)))
-                if len(hsv_px) else 0.0,
-                sat=float(np.median(hsv_px[:, 1])) if len(hsv_px) else 0.0,
-                val=float(np.median(hsv_px[:, 2])) if len(hsv_px) else 0.0,
-                hue_iqr=float(np.subtract(*np.percentile(hsv_px[:, 0], [75, 25])))
-                if len(hsv_px) else 0.0))
-            return True
-        residual = circle[3] if len(circle) > 3 else 1.0
-        return support >= p['min_edge_support'] and residual <= p['max_residual_green'] and \
-            fill >= p['min_fill_outline']
-
-    def edge_profile(self, frame, cx, cy, r, samples=48):
-        """Strongest radial edge (relative gradient) within +-2 px of each of `samples` points
-        of a circle (working pixels); NaN where the circle leaves the image."""
-        height, width = frame.gx.shape
-        a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
-        ca, sa = np.cos(a), np.sin(a)
-        best = np.zeros(samples, dtype=np.float32)
-        inside = np.zeros(samples, dtype=bool)
-        for dr in (-2.0, -1.0, 0.0, 1.0, 2.0):
-            xs = np.rint(cx + (r + dr) * ca).astype(np.int64)
-            ys = np.rint(cy + (r + dr) * sa).astype(np.int64)
-            ok = (xs >= 1) & (ys >= 1) & (xs < width - 1) & (ys < height - 1)
-            inside |= ok
-            xs, ys = np.clip(xs, 0, width - 1), np.clip(ys, 0, height - 1)
-            radial = np.abs(frame.gx[ys, xs] * ca + frame.gy[ys, xs] * sa)
-            best = np.maximum(best, np.where(ok, radial, 0.0))
-        return np.where(inside, best, np.nan)
-
-    def edge_support(self, frame, cx, cy, r, samples=48):
-        """Fraction of a circle (working pixels) along which the brightness has a radial edge
-        of at least `edge_min` (relative gradient), within +-2 px of the circle."""
-        if frame.gx is None:
-            return 1.0
-        best = self.edge_profile(frame, cx, cy, r, samples)
-        best = best[np.isfinite(best)]
-        if not len(best):
-            return 0.0
-        return float(np.mean(best >= float(self.params['edge_min'])))
 
     def _merge_fragments(self, detections):
         """Drop fragments whose centre lies inside a larger, similarly coloured fruit.
