@@ -58,7 +58,9 @@ def test_a_defaults_file_that_is_not_a_mapping_is_refused(tmp_path):
 
 
 # --- no second copy of a default in the code -------------------------------------------------------
-SOURCES = ('executive.py', 'executive_node.py', 'executive_pipelined.py', 'executive_states.py')
+SOURCES = ('executive.py', 'executive_callbacks.py', 'executive_config.py', 'executive_estop.py',
+           'executive_node.py', 'executive_pipelined.py', 'executive_plan_states.py',
+           'executive_publishers.py', 'executive_states.py', 'executive_stop_states.py')
 CONFIG_NAMES = ('cfg', 'config')
 
 

@@ -1,5 +1,9 @@
 """ROS glue of the task-planning node: parameters, emergency stop and resume, records, introspection.
 
+This module holds the node (TaskPlanner); its configuration is in executive_config.py, its
+emergency stop and resume in executive_estop.py (TaskPlanner's base class), the checkpoint
+message and the publishers' listeners in executive_publishers.py (each re-exported here).
+
 Node `task_planner`
   Action clients (relative names, see config/executive.yaml `actions`): self_test, move_base,
     tomato_scan, spatial_temporal, kinematics, move_robot, end_effector, visual_servo
@@ -23,7 +27,6 @@ Node `task_planner`
     default harvest_description's), ~robot_name (''), ~starts (written by the node: how often it
     started in this launch), and everything of config/executive.yaml.
 """
-import math
 import os
 import threading
 import time
@@ -31,18 +34,20 @@ import warnings
 
 import rosgraph
 import rospy
-import yaml
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Bool, Int32MultiArray, String
-from std_srvs.srv import Trigger, TriggerResponse
+from std_srvs.srv import Trigger
 
-from geometry_msgs.msg import Point
 from harvest_msgs.msg import Checkpoint, MissionEvent, PickRecord
 from harvest_msgs.srv import GetCheckpoint, GetMissionRecords
 from control_pkg.smach_compat import IntrospectionServer
 from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import executive
-from control_pkg.executive_states import MissionContext, clear_preempts
+from control_pkg.executive_config import defaults_path, load_defaults, merged_config  # noqa: F401
+from control_pkg.executive_estop import EmergencyStopAndResume
+from control_pkg.executive_publishers import (  # noqa: F401 - re-exported
+    snapshot_to_msg, snapshot_from_msg, _Subscribed, _Replayed)
+from control_pkg.executive_states import MissionContext
 from control_pkg import mission as mission_lib
 from control_pkg import names
 from control_pkg import node_watch
@@ -51,130 +56,11 @@ from control_pkg import node_watch
 _FINISHED = ('succeeded', 'aborted')
 
 
-def snapshot_to_msg(snap, stamp):
-    """A checkpoint.Snapshot as harvest_msgs/Checkpoint."""
-    msg = Checkpoint(mission_id=snap.mission_id, robot=snap.robot, stamp=stamp,
-                     points=list(snap.points), point_index=snap.point_index,
-                     picking_point=snap.picking_point, target_id=snap.target_id,
-                     phase=snap.phase, holding=snap.holding, finished=snap.finished,
-                     outcome=snap.outcome)
-    msg.targets_done = [t for t, _ in snap.targets_done]
-    msg.done_positions = [Point(*xyz) for _, xyz in snap.targets_done]
-    if snap.target_position is not None:
-        msg.target_position = Point(*snap.target_position)
-    return msg
+class TaskPlanner(EmergencyStopAndResume):
+    """Builds the state machine, wires emergency stop/resume and records, and runs the mission.
 
-
-def snapshot_from_msg(msg):
-    return checkpoint_lib.Snapshot(
-        msg.mission_id, msg.robot, msg.points, msg.point_index, msg.picking_point,
-        [(t, (p.x, p.y, p.z)) for t, p in zip(msg.targets_done, msg.done_positions)],
-        msg.target_id, (msg.target_position.x, msg.target_position.y, msg.target_position.z)
-        if msg.target_id >= 0 else None, msg.phase, msg.holding, msg.finished, msg.outcome)
-
-
-class _Subscribed(rospy.SubscribeListener):
-    """Sets an event when a subscriber connects to the publisher it listens to."""
-
-    def __init__(self):
-        rospy.SubscribeListener.__init__(self)
-        self.event = threading.Event()
-
-    def peer_subscribe(self, topic_name, topic_publish, peer_publish):
-        self.event.set()
-
-
-class _Replayed(_Subscribed):
-    """A publisher's history of this run, sent again to every subscriber that connects: a
-    database_node that (re)starts mid-mission (respawned after a crash) gets every record and
-    event it missed, and a dashboard started late the whole mission (the store keeps each once:
-    database_pkg schema 5)."""
-
-    def __init__(self):
-        _Subscribed.__init__(self)
-        self._lock = threading.Lock()
-        self._sent = []
-
-    def publish(self, publisher, msg):
-        with self._lock:
-            self._sent.append(msg)
-        publisher.publish(msg)
-
-    def peer_subscribe(self, topic_name, topic_publish, peer_publish):
-        with self._lock:
-            history = list(self._sent)
-        for msg in history:
-            peer_publish(msg)
-        _Subscribed.peer_subscribe(self, topic_name, topic_publish, peer_publish)
-
-
-def defaults_path():
-    """config/executive.yaml of the control_pkg package: the executive's defaults live only there."""
-    here = os.path.dirname(os.path.abspath(__file__))
-    source = os.path.join(here, '..', '..', 'config', 'executive.yaml')     # devel space / source
-    if os.path.exists(source):
-        return os.path.normpath(source)
-    import rospkg                                                          # install space
-    return os.path.join(rospkg.RosPack().get_path('control_pkg'), 'config', 'executive.yaml')
-
-
-def load_defaults(path=None):
-    """The executive's defaults (a dict) from config/executive.yaml, or from `path`."""
-    path = path or defaults_path()
-    with open(path) as f:
-        data = yaml.safe_load(f)
-    if not isinstance(data, dict):
-        raise ValueError('%s: the executive defaults must be a mapping' % path)
-    return data
-
-
-def merged_config(overrides, defaults=None):
-    """The defaults (config/executive.yaml unless given) updated one level deep with
-    `overrides` (a dict from the parameter server)."""
-    defaults = load_defaults() if defaults is None else defaults
-    cfg = {}
-    for key, value in defaults.items():
-        if isinstance(value, dict):
-            merged = dict(value)
-            merged.update((overrides or {}).get(key, {}) or {})
-            cfg[key] = merged
-        else:
-            cfg[key] = (overrides or {}).get(key, value)
-    for key in ('home', ):
-        for arm in ('left', 'right'):
-            joints = cfg[key][arm]
-            if len(joints) != 3 or any(math.isnan(float(j)) for j in joints):
-                raise ValueError('%s/%s must be 3 finite joint values [lift, boom, forearm], got %r'
-                                 % (key, arm, joints))
-    pulls = cfg['right_pulls']
-    if not isinstance(pulls, (list, tuple)) or not all(
-            isinstance(p, (list, tuple)) and len(p) == 3 and
-            all(isinstance(v, (int, float)) and math.isfinite(float(v)) for v in p) for p in pulls):
-        raise ValueError('right_pulls must be a list of [dx, dy, dz] (finite, m), got %r' % (pulls,))
-    watched = cfg['watched_nodes']
-    if not isinstance(watched, (list, tuple)) or not all(isinstance(n, str) and n for n in watched):
-        raise ValueError('watched_nodes must be a list of node names, got %r' % (watched,))
-    for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait',
-                'node_watch_period'):
-        if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
-            raise ValueError('%s must be a finite number >= 0, got %r' % (key, cfg[key]))
-    if cfg['schedule'] not in mission_lib.SCHEDULES:
-        raise ValueError('schedule must be one of %s, got %r' % (', '.join(mission_lib.SCHEDULES),
-                                                                 cfg['schedule']))
-    margin = cfg['overlap_margin']
-    if not isinstance(margin, (int, float)) or not math.isfinite(float(margin)) or margin < 0:
-        raise ValueError('overlap_margin must be a finite number >= 0 (m), got %r' % (margin,))
-    tol = cfg['relocate_tolerance']
-    if not isinstance(tol, (int, float)) or not math.isfinite(float(tol)) or float(tol) < 0.0:
-        raise ValueError('relocate_tolerance must be a finite number >= 0 (m), got %r' % (tol,))
-    rtol = cfg['relocate_radius_tolerance']
-    if not isinstance(rtol, (int, float)) or not 0.0 <= float(rtol) < 1.0:
-        raise ValueError('relocate_radius_tolerance must be a number in [0, 1), got %r' % (rtol,))
-    return cfg
-
-
-class TaskPlanner(object):
-    """Builds the state machine, wires emergency stop/resume and records, and runs the mission."""
+    The emergency stop and resume (topic, services, halt_all) are its base class's
+    (executive_estop.EmergencyStopAndResume)."""
 
     def __init__(self):
         defaults = load_defaults()
@@ -395,106 +281,6 @@ class TaskPlanner(object):
             points = list(range(len(track)))
         rospy.loginfo('task_planner: %d picking points to visit: %s', len(points), points)
         return [int(p) for p in points]
-
-    # --- emergency stop and resume ---------------------------------------------------------------
-    def _estop_topic_cb(self, msg):
-        if msg.data:
-            self.request_stop('emergency_stop topic')
-        else:
-            self.request_resume('emergency_stop topic released')
-
-    def _estop_srv(self, req):
-        self.request_stop('emergency_stop service')
-        return TriggerResponse(success=True, message='emergency stop requested')
-
-    def _resume_srv(self, req):
-        if self.estop.is_set():
-            self.request_resume('resume service')
-            return TriggerResponse(success=True, message='resume requested')
-        if self.outcome == 'aborted' and self._fault_snapshot is not None:
-            ok, message = self.continue_after_fault()
-            return TriggerResponse(success=ok, message=message)
-        return TriggerResponse(success=False, message='not stopped')
-
-    def continue_after_fault(self):
-        """After DO_ERROR ended the mission (a drive fault, a component down) and the operator
-        cleared the cause (motion_pkg's enable_all, a restarted component): the same mission
-        goes on from its last checkpoint as after a restart of this node (RESUME: the robot's
-        real state made safe, then DO_START's self-test, which refuses a fault still there,
-        then the interrupted picking point scanned again). The fruit DO_ERROR recorded failed
-        is tried again: that record does not skip it."""
-        with self._run_lock:
-            if self._thread is not None:
-                self._thread.join(5.0)       # it ends right after the summary
-            snap = self._fault_snapshot
-            if snap is None or (self._thread is not None and self._thread.is_alive()):
-                return False, 'nothing to continue: the mission did not end in DO_ERROR'
-            recorded = [(f.picking_point, f.target_id, f.position) for f in self.recorder.fruits
-                        if f.outcome != mission_lib.OUTCOME_FAILED]
-            try:
-                plan = checkpoint_lib.resume_plan(snap, recorded,
-                                                  float(self.config['resume_skip_tolerance']))
-                if snap.points:
-                    self.progress.resume_at(snap.points, plan.point_index)
-            except ValueError as exc:
-                return False, 'cannot continue mission %s: %s' % (self.mission_id, exc)
-            fault = self.context.last_error
-            self._fault_snapshot = None
-            self.checkpoints.restore(snap)
-            self.context.skip[snap.picking_point] = plan.skip
-            self.context.resume = plan
-            self.context.resume_snapshot = snap
-            self.context.last_error = ''
-            self.outcome = None
-            self.resuming = True
-            clear_preempts(self.sm)
-            self.publish_event('resume', 'DO_ERROR', 'mission %s continued after the fault (%s): %s'
-                               % (self.mission_id, fault, plan.why))
-            rospy.logwarn('task_planner: continuing mission %s after the fault (%s): %s',
-                          self.mission_id, fault, plan.why)
-            self.start()
-        return True, 'mission %s continued: %s' % (self.mission_id, plan.why)
-
-    def _start_srv(self, req):
-        with self._run_lock:
-            if self._thread is not None:
-                return TriggerResponse(success=False, message='mission already started (outcome: %s)%s' % (
-                    self.outcome, '; after DO_ERROR, ~resume continues it' if self.outcome == 'aborted' else ''))
-            self.start()
-        return TriggerResponse(success=True, message='mission %s started' % self.mission_id)
-
-    def request_stop(self, source):
-        if not self.estop.is_set():
-            self.estop.set()
-            self.sm.estop_monitor.wake()
-            # halt at once, from the thread that took the command: DO_STOP halts again once the
-            # state machine has unwound (tens to hundreds of ms later), and that second halt
-            # also covers a goal a state sent while the stop was under way
-            ok, message = self.halt_axes()
-            rospy.logwarn('task_planner: emergency stop from %s; axes halted: %s (%s)', source, ok,
-                          message)
-
-    def request_resume(self, source):
-        if self.estop.is_set():
-            rospy.loginfo('task_planner: resume from %s', source)
-            self.resume.set()
-
-    def halt_axes(self):
-        """Call halt_all through a persistent connection (made again once if it broke)."""
-        with self._halt_lock:
-            for attempt in (0, 1):
-                try:
-                    if self._halt is None:
-                        rospy.wait_for_service(names.HALT_ALL, timeout=2.0)
-                        self._halt = rospy.ServiceProxy(names.HALT_ALL, Trigger, persistent=True)
-                    resp = self._halt()
-                    return resp.success, resp.message
-                except (rospy.ROSException, rospy.ServiceException) as exc:
-                    if self._halt is not None:
-                        self._halt.close()
-                        self._halt = None
-                    if attempt:
-                        return False, 'halt_all unavailable: %s' % exc
 
     # --- records ---------------------------------------------------------------------------------
     def publish_event(self, kind, state, detail):
