@@ -9,6 +9,7 @@ import requests
 
 import farm_harness
 from farm_server.db import FarmDB
+from farm_server.fusion_config import OUTCOME_NAMES
 
 pytestmark = pytest.mark.skipif(farm_harness.chromium() is None,
                                 reason='chromium not installed (apt-get install chromium)')
@@ -47,6 +48,9 @@ def test_page_renders_strip_plans_and_harvest_figures(demo):
     plan = [r for r in overview['robots'] if r['robot'] == 'robot_a'][0]['plan']
     assert sorted(int(k) for p, k, _n in cells if p) == sorted(plan['picking_points'])
     assert ', '.join(str(k) for k in plan['picking_points']) in dom
+    # a column per outcome of the one enum (picked has its own two)
+    headers = re.findall(r'<th[^>]*>([^<]*)</th>', dom)
+    assert set(OUTCOME_NAMES.values()) <= set(headers), headers
     for robot in overview['robots']:
         assert '<td class="l">%s</td>' % robot['robot'] in dom
         assert '%.1f' % robot['mean_cycle_time'] in dom

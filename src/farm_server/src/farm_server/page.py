@@ -118,12 +118,13 @@ function render(data) {
     table(["robot", "row", "picking points in visit order", "expected ripe"], plans, 3) :
     el("div", {"class": "empty"}, ["no plans"]));
   document.getElementById("robots").appendChild(table(
-    ["robot", "missions", "picked", "picked today", "unreachable", "lost", "failed",
+    ["robot", "missions", "picked", "picked today", "unreachable", "lost", "failed", "dropped",
      "success", "mean cycle time [s]", "last upload (UTC)"],
     data.robots.map(function (r) {
       var o = r.outcomes || {};
       return [r.robot, r.missions, r.picked, r.picked_today, o.unreachable || 0, o.lost || 0,
-              o.failed || 0, r.success_rate === null ? "-" : Math.round(100 * r.success_rate) + " %",
+              o.failed || 0, o.dropped || 0,
+              r.success_rate === null ? "-" : Math.round(100 * r.success_rate) + " %",
               fmt(r.mean_cycle_time, 1), when(r.last_upload)];
     }), 1));
   document.getElementById("rows").appendChild(data.yield_by_row.length ? table(
