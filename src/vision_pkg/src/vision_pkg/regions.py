@@ -79,29 +79,41 @@ class RegionSplitter(object):
         return detections
 
     @staticmethod
-    def _skin_pixels(frame, part, ox, oy, cx, cy, radius, disc_only=False):
-        """(rows, cols) in the working image of the skin sample of a fruit circle (with
-        `disc_only`, of the whole disc in the image)."""
+    def _disc(frame, cx, cy, radius):
+        """(x0, y0, disc) of a circle in the working image (centre in image pixels): the
+        window around it that lies in the image, at (x0, y0), and the disc as a mask of it;
+        None when the window is empty."""
         height, width = frame.hsv.shape[:2]
-        x0, y0 = max(int(cx + ox - radius), 0), max(int(cy + oy - radius), 0)
-        x1 = min(int(math.ceil(cx + ox + radius)) + 1, width)
-        y1 = min(int(math.ceil(cy + oy + radius)) + 1, height)
+        x0, y0 = max(int(cx - radius), 0), max(int(cy - radius), 0)
+        x1 = min(int(math.ceil(cx + radius)) + 1, width)
+        y1 = min(int(math.ceil(cy + radius)) + 1, height)
         if x0 >= x1 or y0 >= y1:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+            return None
         yy, xx = np.mgrid[y0:y1, x0:x1]
-        disc = (xx - (cx + ox)) ** 2 + (yy - (cy + oy)) ** 2 <= radius * radius
-        if disc_only:
-            rows, cols = np.nonzero(disc)
-            return rows + y0, cols + x0
-        on_part = np.zeros(disc.shape, dtype=bool)
+        return x0, y0, (xx - cx) ** 2 + (yy - cy) ** 2 <= radius * radius
+
+    @staticmethod
+    def _on_part(part, ox, oy, x0, y0, shape):
+        """Mask of an image window (at x0, y0, of `shape`) that the part covers (a crop of the
+        image at ox, oy)."""
+        on_part = np.zeros(shape, dtype=bool)
         px0, py0 = max(x0 - ox, 0), max(y0 - oy, 0)
-        px1, py1 = min(x1 - ox, part.shape[1]), min(y1 - oy, part.shape[0])
+        px1, py1 = min(x0 + shape[1] - ox, part.shape[1]), min(y0 + shape[0] - oy, part.shape[0])
         if px0 < px1 and py0 < py1:
             on_part[py0 + oy - y0:py1 + oy - y0, px0 + ox - x0:px1 + ox - x0] = \
                 part[py0:py1, px0:px1]
-        skin = disc & on_part
+        return on_part
+
+    def _skin_pixels(self, frame, part, ox, oy, cx, cy, radius):
+        """(rows, cols) in the working image of the skin sample of a fruit circle (centre
+        relative to the part's crop at ox, oy): the disc on the part, not bridged."""
+        window = self._disc(frame, cx + ox, cy + oy, radius)
+        if window is None:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        x0, y0, disc = window
+        skin = disc & self._on_part(part, ox, oy, x0, y0, disc.shape)
         if frame.fill is not None:
-            skin &= frame.fill[y0:y1, x0:x1] == 0
+            skin &= frame.fill[y0:y0 + disc.shape[0], x0:x0 + disc.shape[1]] == 0
         rows, cols = np.nonzero(skin)
         return rows + y0, cols + x0
 
@@ -111,18 +123,15 @@ class RegionSplitter(object):
         of the background (plastic film, floor, sky, pipes). A fruit hidden behind a leaf,
         stem or another fruit is covered by them; where the background shows, the fruit is
         not, so the circle is too large or misplaced."""
-        rows, cols = self._skin_pixels(frame, np.zeros_like(part), ox, oy, cx, cy, 0.9 * radius,
-                                       disc_only=True)
-        if not len(rows):
+        window = self._disc(frame, cx + ox, cy + oy, 0.9 * radius)
+        if window is None:
             return 0.0
-        hsv = frame.hsv[rows, cols]
-        pale = (hsv[:, 1] < int(self.params['see_through_sat'])) & \
-            (hsv[:, 2] > int(self.params['see_through_val']))
-        on_part = np.zeros(len(rows), dtype=bool)
-        pr, pc = rows - oy, cols - ox
-        ok = (pr >= 0) & (pc >= 0) & (pr < part.shape[0]) & (pc < part.shape[1])
-        on_part[ok] = part[pr[ok], pc[ok]]
-        return float(np.mean(pale & ~on_part))
+        x0, y0, disc = window
+        hsv = frame.hsv[y0:y0 + disc.shape[0], x0:x0 + disc.shape[1]]
+        pale = (hsv[:, :, 1] < int(self.params['see_through_sat'])) & \
+            (hsv[:, :, 2] > int(self.params['see_through_val']))
+        shows = pale & ~self._on_part(part, ox, oy, x0, y0, disc.shape)
+        return float(np.count_nonzero(shows & disc)) / max(int(np.count_nonzero(disc)), 1)
 
     def _peaks(self, dist, r_min):
         """Non-maximum-suppressed distance-transform maxima: list of (x, y, r)."""
