@@ -19,9 +19,9 @@ Phases of the target being picked (Checkpoint.phase) and what the robot may be d
 | place      | the cut succeeded (to the box)         | yes, off the plant                  |
 | placed     | the valve closed over the box          | none (in the box, record not out)   |
 """
-import math
 
 from control_pkg.mission import OUTCOME_LOST, OUTCOME_PICKED
+from control_pkg.mission_planning import distance
 
 PHASE_NONE = ''
 PHASE_APPROACH = 'approach'
@@ -158,7 +158,7 @@ class ResumePlan(object):
 
 
 def _near(a, b, tolerance):
-    return math.sqrt(sum((x - y) ** 2 for x, y in zip(a, b))) <= tolerance
+    return distance(a, b) <= tolerance
 
 
 def resume_plan(snapshot, recorded=(), tolerance=0.02):
