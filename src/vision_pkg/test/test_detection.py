@@ -224,6 +224,31 @@ def test_work_per_frame_is_bounded_however_cluttered():
     assert counts[1500]['regions'] <= 2 * TomatoDetector().params['max_regions']
 
 
+def test_a_wider_camera_finds_the_same_fruit_at_the_same_places(cluster_scene):
+    """An image wider than reference_width is seen as that image resized to it: the same
+    scene taken at 1.875x the resolution (1920 wide) gives the same fruit and stages, ripe
+    fruit at the same places (in its own pixels), and the smallest fruit radius scales with the
+    width."""
+    fruits, image, dets = cluster_scene
+    f = 1920.0 / image.shape[1]
+    wide = cv2.resize(image, None, fx=f, fy=f, interpolation=cv2.INTER_CUBIC)
+    detector = TomatoDetector()
+    wide_dets = detector.detect(wide)
+    assert len(wide_dets) == len(dets) == len(fruits)
+    for fruit in fruits:
+        det = max(dets, key=lambda d: _match(d, fruit))
+        other = min(wide_dets, key=lambda d: math.hypot(d.u - det.u * f, d.v - det.v * f))
+        assert other.stage == det.stage, (fruit.centre, det, other)
+        if det.score >= 0.7:
+            assert math.hypot(other.u - det.u * f, other.v - det.v * f) < f, (det, other)
+            assert other.radius_px == pytest.approx(det.radius_px * f, rel=0.03)
+        else:           # a turning fruit's circle follows its coloured part: same fruit
+            assert math.hypot(other.u - det.u * f, other.v - det.v * f) < 0.2 * other.radius_px
+    assert detector.min_radius_input(1920) == pytest.approx(
+        detector.params['min_radius_px'] * f)
+    assert detector.min_radius_input(640) == detector.params['min_radius_px']
+
+
 def test_detect_rejects_what_is_not_a_colour_image():
     with pytest.raises(ValueError):
         TomatoDetector().detect(np.zeros((10, 10), np.uint8))

@@ -159,7 +159,7 @@ def run_photos(args, log=print):
             u, v, r = f['u'] * s, f['v'] * s, f['r'] * s
             gts.append(dict(box=clip_box([u - r, v - r, u + r, v + r], w, h), stage=f['stage'],
                             id=f['id'], care=f['visible'] >= args.min_visible and
-                            r >= detector.params['min_radius_px']))
+                            r >= detector.min_radius_input(w)))
         times = []
         for _ in range(args.repeat):
             dets, ms = _timed_detect(detector, image)

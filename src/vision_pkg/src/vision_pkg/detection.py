@@ -2,7 +2,9 @@
 
 Made to hold on real photographs as well as on harvest_sim's renders. For one BGR image:
   0. working copy: resized to ~scale, and at most ~max_work_width pixels wide, so the cost per
-     frame is bounded whatever the camera (results come back in full-resolution pixels);
+     frame is bounded whatever the camera (results come back in full-resolution pixels); an
+     image wider than ~reference_width is first treated as if resized to that width, so that
+     the fruit it finds, and the sizes in pixels, do not depend on the camera's resolution;
   1. colour constancy: the scene's illuminant is estimated from its brightest unclipped pixels
      among those an illuminant could have tinted from white or grey (white film, pipes,
      specular highlights: a white reference from the scene; daylight, warm light and red/blue
@@ -56,8 +58,9 @@ from vision_pkg.surface import RoundSurface
 DEFAULTS = {
     'scale': 0.5,               # processing scale of the input image
     'max_work_width': 640,      # ... and at most this many pixels wide (0: no cap)
-    'min_radius_px': 20.0,      # smallest fruit radius [px, full resolution]
-    'max_radius_px': 200.0,     # largest fruit radius [px, full resolution]
+    'reference_width': 1024,    # a wider image is treated as if resized to this width (0: off)
+    'min_radius_px': 20.0,      # smallest fruit radius [px of an image reference_width wide]
+    'max_radius_px': 200.0,     # largest fruit radius [px of an image reference_width wide]
     # colour constancy (white reference from the scene's brightest pixels)
     'white_balance': True,
     'wb_top_fraction': 0.02,    # brightest fraction of the reference candidates averaged
@@ -185,10 +188,23 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         return table.astype(np.float32)
 
     # -- colour -------------------------------------------------------------------------------
+    def size_factor(self, width):
+        """Scale of an image `width` pixels wide to the reference width (at most 1): the
+        detector sees a wider image as that image resized to `reference_width`, so what it finds
+        does not depend on the camera's resolution, and its pixel sizes (min/max_radius_px)
+        are pixels of the reference width."""
+        ref = int(self.params['reference_width'])
+        return ref / float(width) if 0 < ref < width else 1.0
+
+    def min_radius_input(self, width):
+        """The smallest fruit radius the detector looks for, in pixels of an image `width`
+        pixels wide."""
+        return float(self.params['min_radius_px']) / self.size_factor(width)
+
     def working_scale(self, width):
         """Processing scale for an image `width` pixels wide."""
         p = self.params
-        scale = float(p['scale'])
+        scale = float(p['scale']) * self.size_factor(width)
         cap = int(p['max_work_width'])
         if cap > 0 and width * scale > cap:
             scale = cap / float(width)
@@ -327,8 +343,10 @@ class TomatoDetector(RegionSplitter, RoundSurface):
             small = bgr
         small, _ = self.balance(small)
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
-        r_min = p['min_radius_px'] * scale
-        r_max = p['max_radius_px'] * scale
+        # radii in working pixels (min/max_radius_px are pixels of the reference width)
+        sizes = scale / self.size_factor(bgr.shape[1])
+        r_min = p['min_radius_px'] * sizes
+        r_max = p['max_radius_px'] * sizes
         ripe, green = self.colour_masks(hsv)
         frame = Frame(small, hsv, scale)
         # pass 1: ripe colours (red, orange, pink; the coloured part of turning fruit)

@@ -66,7 +66,8 @@ IMAGE_HISTORY = 8
 #: (data, cancellation and shutdown wake the wait at once; the deadline itself is ROS time)
 WAIT_POLL = 0.1
 #: hand camera detector defaults that differ from the stereo ones (640x480, full resolution)
-HAND_DETECTOR_DEFAULTS = {'scale': 1.0, 'min_radius_px': 12.0, 'max_radius_px': 320.0}
+HAND_DETECTOR_DEFAULTS = {'scale': 1.0, 'reference_width': 640, 'min_radius_px': 12.0,
+                          'max_radius_px': 320.0}
 
 
 def _detector_params(namespace, overrides):
