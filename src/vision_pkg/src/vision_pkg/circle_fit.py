@@ -13,9 +13,10 @@ def fit_circle(xs, ys):
     n = len(xs)
     if n < 5:
         return None
-    mx, my = float(np.mean(xs)), float(np.mean(ys))
-    u = np.asarray(xs, dtype=np.float64) - mx
-    v = np.asarray(ys, dtype=np.float64) - my
+    xs = np.asarray(xs, dtype=np.float64)
+    ys = np.asarray(ys, dtype=np.float64)
+    mx, my = float(xs.sum()) / n, float(ys.sum()) / n
+    u, v = xs - mx, ys - my
     uu, vv, uv = float(u.dot(u)), float(v.dot(v)), float(u.dot(v))
     det = uu * vv - uv * uv
     if det <= 1e-9 * max(uu * vv, 1e-12):
@@ -75,28 +76,30 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     if n < 8:
         return None
     idx = np.minimum((_triples(seed, trials) * n).astype(np.int64), n - 1)
-    x1, x2, x3 = xs[idx[:, 0]], xs[idx[:, 1]], xs[idx[:, 2]]
-    y1, y2, y3 = ys[idx[:, 0]], ys[idx[:, 1]], ys[idx[:, 2]]
+    px, py = xs[idx], ys[idx]                   # trials x 3
+    (x1, x2, x3), (y1, y2, y3) = px.T, py.T
     d = 2.0 * (x1 * (y2 - y3) + x2 * (y3 - y1) + x3 * (y1 - y2))
     ok = np.abs(d) > 1e-6
-    if not ok.any():
-        return None
     d = np.where(ok, d, 1.0)
-    s1, s2, s3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
+    s1, s2, s3 = (px * px + py * py).T
     cx = (s1 * (y2 - y3) + s2 * (y3 - y1) + s3 * (y1 - y2)) / d
     cy = (s1 * (x3 - x2) + s2 * (x1 - x3) + s3 * (x2 - x1)) / d
     r = np.hypot(x1 - cx, y1 - cy)
-    ok &= (r >= r_min) & (r <= r_max)
-    if not ok.any():
+    cand = np.flatnonzero(ok & (r >= r_min) & (r <= r_max))
+    if not len(cand):
         return None
-    cand = np.flatnonzero(ok)
-    res = np.abs(np.hypot(xs[None, :] - cx[cand, None], ys[None, :] - cy[cand, None])
-                 - r[cand, None])
-    support = (res <= 1.0 + 0.03 * r[cand, None]).sum(axis=1)
-    best = cand[int(np.argmax(support))]
-    inliers = res[int(np.argmax(support))] <= 1.0 + 0.03 * r[best]
-    if inliers.sum() < 8:
+    cx, cy, r = cx[cand], cy[cand], r[cand]
+    # support: points within 1 px + 3 % of r of each circle, from the squared distances of
+    # every point to every centre as one matrix product
+    tol = 1.0 + 0.03 * r
+    pts = np.column_stack([xs, ys, xs * xs + ys * ys])
+    d2 = pts.dot(np.stack([-2.0 * cx, -2.0 * cy, np.ones_like(cx)])) + (cx * cx + cy * cy)
+    within = (d2 >= np.maximum(r - tol, 0.0) ** 2) & (d2 <= (r + tol) ** 2)
+    support = within.sum(axis=0)
+    best = int(np.argmax(support))
+    if support[best] < 8:
         return None
+    inliers = within[:, best]
     refit = fit_circle(xs[inliers], ys[inliers])
     if refit is None or not r_min <= refit[2] <= r_max:
         return float(cx[best]), float(cy[best]), float(r[best])

@@ -311,12 +311,14 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         w = np.clip((hsv_pixels[:, 2].astype(np.float32) - low) / (high - low), 0.0, 1.0)
         return dark + (self._shade[hue, sat] - dark) * w
 
-    def _score_pixels(self, hsv_pixels, bgr_pixels):
-        """score_of() for pixels whose HSV values are known."""
+    def _score_pixels(self, hsv_pixels, bgr_pixels, ripeness=None):
+        """score_of() for pixels whose HSV values (or per-pixel ripeness) are known."""
         if len(hsv_pixels) == 0:
             return 0.0, float('nan'), float('nan')
-        score = float(self.pixel_ripeness(hsv_pixels).mean())
-        mean = bgr_pixels.astype(np.float64).mean(axis=0)
+        if ripeness is None:
+            ripeness = self.pixel_ripeness(hsv_pixels)
+        score = float(ripeness.mean())
+        mean = bgr_pixels.sum(axis=0, dtype=np.float64) / len(bgr_pixels)
         total = float(mean.sum())
         chroma = float(mean[2]) / total if total > 0 else 0.0
         return min(max(score, 0.0), 1.0), chroma, lab_hue_angle(mean)

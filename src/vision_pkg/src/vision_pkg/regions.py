@@ -287,8 +287,12 @@ class RegionSplitter(object):
                 # a part of ripening colour: its green-graded pixels are not its skin but the
                 # calyx, sepals and stems across it (seen from the calyx side, a star of
                 # them fills the middle of a red fruit and graded it pink)
-                good &= self.pixel_ripeness(hsv_px) >= p['skin_min_ripeness']
-            score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good])
+                ripeness = self.pixel_ripeness(hsv_px)
+                good &= ripeness >= p['skin_min_ripeness']
+                score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good],
+                                                          ripeness[good])
+            else:
+                score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good])
             min_fill = p['min_fill_green'] if strict or score < STAGE_THRESHOLDS[0] else \
                 p['min_fill']
             if inside < p['min_inside'] or fill < min_fill:
