@@ -275,3 +275,102 @@ def test_with_a_move_server_per_arm_nobody_waits_for_the_first():
     gate = MoveGate(per_arm=True)
     gate.first('right')
     assert gate.acquire('left', lambda: False)
+
+
+# --- the cutting hand's standby (left_standby) ---------------------------------------------------
+class _Context(object):
+    """What the pipelined callbacks read of executive_states.MissionContext."""
+
+    def __init__(self, geometry, left, right):
+        from control_pkg.executive_config import merged_config
+        self.config = merged_config({'schedule': 'pipelined'})
+        self.geometry = geometry
+        self.joints = {'left': left, 'right': right}
+        self.recorder = m.MissionRecorder('m')
+        self.standby = None
+
+    def arm_joints(self, arm):
+        return self.joints[arm]
+
+    def waist(self):
+        return 0.0
+
+
+class _Target(object):
+    def __init__(self, target_id):
+        self.id = target_id
+
+
+class _Ud(dict):
+    """Userdata: keys as attributes."""
+    __getattr__ = dict.__getitem__
+    __setattr__ = dict.__setitem__
+
+
+def _callbacks(context):
+    pytest.importorskip('smach')
+    from control_pkg.executive_pipelined import _PipelinedCallbacks
+    return _PipelinedCallbacks(context)
+
+
+def _after_a_cut(geometry):
+    """The arms after a cut (right: the pulled fruit, left: the shear at its peduncle), the
+    next fruit 12 cm further right: its suction pose and the cutting hand's standby by it."""
+    held = geometry.inverse('right', (0.42, -0.12, 1.0), standoff=0.035).joints
+    cut = geometry.inverse('left', (0.42, -0.12, 1.045), standoff=0.03,
+                           other_arm_joints=held).joints
+    suction = geometry.inverse('right', (0.5, -0.24, 1.0), standoff=0.035, current=BOX_RIGHT).joints
+    standby = geometry.inverse('left', (0.5, -0.24, 1.045), standoff=0.08,
+                               other_arm_joints=suction).joints
+    assert None not in (held, cut, suction, standby)
+    return held, cut, suction, standby
+
+
+def test_the_cutting_hand_waits_by_the_next_target_when_both_ways_are_clear(geometry):
+    held, cut, suction, standby = _after_a_cut(geometry)
+    c = _Context(geometry, cut, held)
+    cb = _callbacks(c)
+    ud = _Ud(targets=[_Target(7)], next_goal=list(suction), standby_goal=list(standby))
+    assert cb.place_step(ud) == 'standby'
+    assert c.standby == (7, tuple(standby))
+    assert c.recorder.totals()['overlaps']['STANDBY'] == {'overlapped': 1, 'sequential': 0}
+    # once there, it is waiting by that target (and by no other)
+    c.joints['left'] = tuple(standby)
+    assert cb.waiting(_Ud(target=_Target(7))) == 'waiting'
+    assert cb.waiting(_Ud(target=_Target(8))) == 'free'
+    c.joints['left'] = HOME_LEFT
+    assert cb.waiting(_Ud(target=_Target(7))) == 'free'
+    assert cb.left_away(_Ud()) == 'home'
+
+
+def test_no_standby_where_the_suction_arms_way_to_the_next_target_meets_it(geometry):
+    held, cut, _, _ = _after_a_cut(geometry)
+    # the next fruit at y 0, the hand waiting at its suction point: its way there is clear of
+    # the suction arm's way to the box (the first leg), not of its way on to that fruit
+    suction = geometry.inverse('right', (0.5, 0.0, 1.0), standoff=0.035, current=BOX_RIGHT).joints
+    in_the_way = geometry.inverse('left', (0.5, 0.0, 1.0), standoff=0.0,
+                                  other_arm_joints=HOME_LEFT).joints
+    first = m.schedule_step(geometry, {'left': cut, 'right': held},
+                            {'left': in_the_way, 'right': BOX_RIGHT}, 0.01)
+    assert first.clear, first.why
+    c = _Context(geometry, cut, held)
+    cb = _callbacks(c)
+    ud = _Ud(targets=[_Target(7)], next_goal=list(suction), standby_goal=list(in_the_way))
+    step = cb.place_step(ud)
+    assert step == 'overlap'          # the left arm home beside the way to the box instead
+    assert c.standby is None
+    assert c.recorder.totals()['overlaps']['STANDBY'] == {'overlapped': 0, 'sequential': 1}
+
+
+def test_a_plan_for_the_next_target_starts_empty_and_none_means_home(geometry):
+    held, cut, suction, standby = _after_a_cut(geometry)
+    c = _Context(geometry, cut, held)
+    cb = _callbacks(c)
+    # the last fruit's goals must not be taken again when there is no next target
+    ud = _Ud(targets=[], next_goal=list(suction), standby_goal=list(standby))
+    assert cb.plan_next(ud) == 'none'
+    assert ud['next_goal'] == [] and ud['standby_goal'] == []
+    assert cb.place_step(ud) in ('overlap', 'sequential')
+    assert 'STANDBY' not in c.recorder.totals().get('overlaps', {})
+    assert c.standby is None
+    assert cb.left_away(_Ud()) == 'away'

@@ -136,13 +136,15 @@ class _Graph(object):
                            goal=goals.move_goal(arm, positions), result_cb=self.cb.move_result)
 
     def add_reach(self, suffix, goal_cb, result_cb, arm, then, unreachable, keys=('target',),
-                  move_result_cb=None, move_keys=(), move_out=(), phase=None):
-        """DO_KINEMATICS<suffix> -> DO_MOVE_ROBOT<suffix>: solve an arm's joints, then move it."""
+                  move_result_cb=None, move_keys=(), move_out=(), phase=None, solved=None):
+        """DO_KINEMATICS<suffix> -> DO_MOVE_ROBOT<suffix>: solve an arm's joints, then move it
+        (`solved`: the state the solution goes to instead, which leads to the move)."""
         smach.StateMachine.add('DO_KINEMATICS' + suffix, self.action(
             'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=goal_cb,
             input_keys=list(keys), output_keys=['joint_goal'], result_cb=result_cb,
             outcomes=['unreachable']),
-            transitions={'succeeded': 'DO_MOVE_ROBOT' + suffix, 'unreachable': unreachable})
+            transitions={'succeeded': solved or 'DO_MOVE_ROBOT' + suffix,
+                         'unreachable': unreachable})
         smach.StateMachine.add('DO_MOVE_ROBOT' + suffix, self.action(
             'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=arm,
             goal_cb=self.cb.move_goal(arm, phase=phase),
@@ -220,13 +222,21 @@ class _Graph(object):
                     outcomes=['unreachable']),
                     transitions={'succeeded': 'RIGHT_ARM', 'unreachable': 'unreachable'})
             add('RIGHT_ARM', self.right_arm(), transitions={
-                'succeeded': 'LEFT_ARM', 'unreachable': 'unreachable', 'lost': 'RECOVER_LOST'})
+                'succeeded': 'LEFT_ARM', 'unreachable': self.right_unreachable,
+                'lost': 'RECOVER_LOST'})
             add('LEFT_ARM', self.left_arm(), transitions={
                 'succeeded': 'PLACE', 'unreachable': 'RECOVER_UNREACHABLE', 'lost': 'RECOVER_LOST'})
             add('PLACE', self.place(), transitions={'succeeded': 'picked'})
             add('RECOVER_LOST', self.recover(), transitions={'succeeded': 'lost'})
             add('RECOVER_UNREACHABLE', self.recover(), transitions={'succeeded': 'unreachable'})
+            self.add_pick_states()
         return sm
+
+    #: where PICK_TARGET goes when the suction arm cannot reach its target (nothing moved yet)
+    right_unreachable = 'unreachable'
+
+    def add_pick_states(self):
+        """More states of PICK_TARGET (a schedule's own); none in the paper's flow."""
 
     def right_arm(self):
         cb = self.cb

@@ -58,12 +58,14 @@ def merged_config(overrides, defaults=None):
     if not isinstance(watched, (list, tuple)) or not all(isinstance(n, str) and n for n in watched):
         raise ValueError('watched_nodes must be a list of node names, got %r' % (watched,))
     for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait',
-                'node_watch_period'):
+                'node_watch_period', 'standby_standoff'):
         if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
             raise ValueError('%s must be a finite number >= 0, got %r' % (key, cfg[key]))
     if cfg['schedule'] not in mission_lib.SCHEDULES:
         raise ValueError('schedule must be one of %s, got %r' % (', '.join(mission_lib.SCHEDULES),
                                                                  cfg['schedule']))
+    if not isinstance(cfg['left_standby'], bool):
+        raise ValueError('left_standby must be true or false, got %r' % (cfg['left_standby'],))
     margin = cfg['overlap_margin']
     if not isinstance(margin, (int, float)) or not math.isfinite(float(margin)) or margin < 0:
         raise ValueError('overlap_margin must be a finite number >= 0 (m), got %r' % (margin,))

@@ -11,6 +11,11 @@ PICK_TARGET (StateMachine)
   [DO_KINEMATICS_CUT]                      with `check_cut_before_suction`, as in the paper flow
   RIGHT_ARM: DO_KINEMATICS -> DO_MOVE_ROBOT -> DO_MOVE_ENDEFFECTOR (suction on)
              -> CHOOSE_PULL -> DO_KINEMATICS_PULL      the pull is solved, not yet made
+             with `left_standby`, between DO_KINEMATICS and suction, when the cutting hand is
+             not yet waiting by this target:
+             LEFT_WAITING -> DO_KINEMATICS_STANDBY -> CHECK_REACH -> REACH (Concurrence)
+                                   DO_MOVE_ROBOT (the suction arm to the fruit)
+                                   DO_MOVE_ROBOT_STANDBY (the cutting hand to its standby)
   LEFT_ARM:  DO_KINEMATICS_AHEAD (cutting hand, at the fruit as the pull will leave it)
              -> CHECK_APPROACH -> APPROACH (Concurrence)
                                     DRAW_OUT: DO_MOVE_ROBOT_PULL -> DO_TOMATO_SCAN_HELD
@@ -18,13 +23,26 @@ PICK_TARGET (StateMachine)
                                  | no pull: DO_MOVE_ROBOT
                                  | not clear: DRAW_OUT -> DO_KINEMATICS -> DO_MOVE_ROBOT (paper)
              -> DO_VISUALSERVOING -> DO_MOVE_ENDEFFECTOR (cut)
-  PLACE:     CHECK_PLACE -> PLACE_AND_RETURN (Concurrence)
+  PLACE:     [PLAN_NEXT: HAS_NEXT -> DO_KINEMATICS (suction arm at the next target of this
+              point) -> DO_KINEMATICS_STANDBY (cutting hand `standby_standoff` further back than
+              its approach to that target's peduncle); with `left_standby`]
+             CHECK_PLACE -> PLACE_AND_PARK (Concurrence)             both arms' whole paths clear
+                              DO_MOVE_ROBOT (left arm to its standby by the next target)
+                              TO_BOX: DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
+                                      -> DO_MOVE_ROBOT_NEXT (the next target's suction pose)
+                          | PLACE_AND_RETURN (Concurrence)
                               DO_MOVE_ROBOT (left arm home)
                               TO_BOX: DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
                                       -> [NEXT_AHEAD: the right arm goes for the next target
                                          of this point while the left arm is still returning]
-                       | not clear: DO_MOVE_ROBOT -> DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR
-  RECOVER_*: as in the paper flow
+                          | not clear: DO_MOVE_ROBOT -> DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR
+  LEAVE_STANDBY: the suction arm cannot reach its target: a cutting hand waiting by it goes home
+  RECOVER_*: as in the paper flow (the left arm home)
+
+The standby is what makes the pipelined cycle short: in the paper's flow the cutting hand goes
+home and back for every fruit (about 3.3 s each way, a 3 rad boom swing), on the critical path.
+Waiting by the next fruit, its approach after the pull is a few centimetres, and its way from
+the cut to the standby runs beside the suction arm's way to the box and back.
 
 Arm moves go through the mission's MoveGate: with `concurrent_arm_moves` (the default;
 motion_pkg's move_robot runs one goal per arm) the two arms' moves of an overlap run at once;
@@ -42,6 +60,8 @@ from control_pkg.executive import _Graph, _Callbacks, _ARM_OUTCOMES, ARM_LEFT, A
 from control_pkg.executive_states import ChoosePull, Decide, MoveGate
 
 add = smach.StateMachine.add
+#: rad / m (joint-space distance): the cutting hand counts as at home within this
+HOME_TOLERANCE = 0.01
 
 
 def _both_outcome(outcomes):
@@ -83,6 +103,20 @@ class PipelinedGraph(_Graph):
         if context.gate is None:
             context.gate = MoveGate(per_arm=self.cfg['concurrent_arm_moves'])
         self.gate = context.gate
+        # check_cut: the suction arm waits for the cut check, so nothing is planned ahead
+        self.standby = bool(self.cfg['left_standby']) and not self.check_cut
+        if self.standby:
+            self.right_unreachable = 'LEAVE_STANDBY'
+
+    def add_pick_states(self):
+        if not self.standby:
+            return
+        # nothing has moved for this target: the cutting hand may be waiting by it
+        add('LEAVE_STANDBY', Decide(self.cb.left_away, ['away', 'home']),
+            transitions={'away': 'DO_MOVE_ROBOT_HOME', 'home': 'unreachable'})
+        add('DO_MOVE_ROBOT_HOME', self.move_fixed('DO_MOVE_ROBOT', ARM_LEFT,
+                                                  self.cfg['home']['left']),
+            transitions={'succeeded': 'unreachable'})
 
     # --- the right arm: suction, the pull solved ------------------------------------------------
     def right_arm(self):
@@ -90,11 +124,15 @@ class PipelinedGraph(_Graph):
         sm = smach.StateMachine(outcomes=list(_ARM_OUTCOMES), input_keys=['target'],
                                 output_keys=['target', 'pull', 'pull_goal'])
         sm.userdata.joint_goal = []
+        sm.userdata.standby_goal = []
         sm.userdata.pull = (0.0, 0.0, 0.0)
         sm.userdata.pull_goal = []
         with sm:
             self.add_reach('', cb.suction_goal, cb.kinematics_result, ARM_RIGHT,
-                           then='DO_MOVE_ENDEFFECTOR', unreachable='unreachable')
+                           then='DO_MOVE_ENDEFFECTOR', unreachable='unreachable',
+                           solved='LEFT_WAITING' if self.standby else None)
+            if self.standby:
+                self.add_reach_with_standby()
             add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_ON),
                 transitions={'aborted': 'lost',
                              'succeeded': 'CHOOSE_PULL' if self.pulls else 'succeeded'})
@@ -111,6 +149,37 @@ class PipelinedGraph(_Graph):
                     result_cb=cb.pull_solution, outcomes=['unreachable']),
                     transitions={'unreachable': 'succeeded'})
         return sm
+
+    def add_reach_with_standby(self):
+        """After the suction arm's DO_KINEMATICS (add_reach): a cutting hand not yet waiting by
+        this target (the first target of a point; PLACE sends it there for the next ones) goes
+        to its standby by it while the suction arm reaches it.
+        LEFT_WAITING -> DO_KINEMATICS_STANDBY -> CHECK_REACH -> REACH (Concurrence)
+        | waiting already, no standby solved or not clear: DO_MOVE_ROBOT alone (add_reach's)."""
+        cb = self.cb
+        sm_add = smach.StateMachine.add
+        sm_add('LEFT_WAITING', Decide(cb.waiting, ['waiting', 'free'], input_keys=['target']),
+               transitions={'free': 'DO_KINEMATICS_STANDBY', 'waiting': 'DO_MOVE_ROBOT'})
+        sm_add('DO_KINEMATICS_STANDBY', self.action(
+            'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=cb.standby_goal_of('target'),
+            input_keys=['target'], output_keys=['standby_goal'],
+            result_cb=cb.solution_into('standby_goal'), outcomes=['unreachable']),
+            transitions={'succeeded': 'CHECK_REACH', 'unreachable': 'DO_MOVE_ROBOT',
+                         'aborted': 'DO_MOVE_ROBOT'})
+        sm_add('CHECK_REACH', Decide(cb.reach_step, ['overlap', 'sequential'],
+                                     input_keys=['target', 'joint_goal', 'standby_goal']),
+               transitions={'overlap': 'REACH', 'sequential': 'DO_MOVE_ROBOT'})
+        sm_add('REACH', _overlap(
+            [('DO_MOVE_ROBOT', self.action(
+                'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_RIGHT,
+                goal_cb=cb.move_goal(ARM_RIGHT), input_keys=['joint_goal'],
+                result_cb=cb.move_result)),
+             ('DO_MOVE_ROBOT_STANDBY', self.action(
+                 'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_LEFT,
+                 goal_cb=cb.move_goal(ARM_LEFT, 'standby_goal'), input_keys=['standby_goal'],
+                 result_cb=cb.move_result))],
+            self.gate, 'right', input_keys=['joint_goal', 'standby_goal']),
+            transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
 
     # --- the left arm: approach while the fruit is drawn out, servo, cut --------------------------
     def left_arm(self):
@@ -170,11 +239,30 @@ class PipelinedGraph(_Graph):
 
     # --- place: to the box while the left arm returns, then on to the next target ----------------
     def place(self):
+        cb = self.cb
         sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
                                 input_keys=['targets'])
+        sm.userdata.next_goal = []
+        sm.userdata.standby_goal = []
+        steps = ['standby', 'overlap', 'sequential'] if self.standby else ['overlap', 'sequential']
         with sm:
-            add('CHECK_PLACE', Decide(self.cb.place_step, ['overlap', 'sequential']),
-                transitions={'overlap': 'PLACE_AND_RETURN', 'sequential': 'DO_MOVE_ROBOT'})
+            if self.standby:
+                add('PLAN_NEXT', self.plan_next(), transitions={'succeeded': 'CHECK_PLACE'})
+            add('CHECK_PLACE', Decide(cb.place_step, steps,
+                                      input_keys=['targets', 'next_goal', 'standby_goal']),
+                transitions=dict((step, state) for step, state in (
+                    ('standby', 'PLACE_AND_PARK'), ('overlap', 'PLACE_AND_RETURN'),
+                    ('sequential', 'DO_MOVE_ROBOT')) if step in steps))
+            if self.standby:
+                # the box goes first when the moves take turns, as below
+                add('PLACE_AND_PARK', _overlap(
+                    [('DO_MOVE_ROBOT', self.action(
+                        'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_LEFT,
+                        goal_cb=cb.move_goal(ARM_LEFT, 'standby_goal'),
+                        input_keys=['standby_goal'], result_cb=cb.move_result)),
+                     ('TO_BOX', self.to_box(next_key='next_goal'))],
+                    self.gate, 'right', input_keys=['targets', 'next_goal', 'standby_goal']),
+                    transitions={'succeeded': 'succeeded'})
             # taking turns, the box goes first: the suction valve then closes beside the left
             # arm's return
             add('PLACE_AND_RETURN', _overlap(
@@ -191,18 +279,53 @@ class PipelinedGraph(_Graph):
             add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF))
         return sm
 
-    def to_box(self):
-        """DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR off [-> the next target's suction pose]."""
+    def plan_next(self):
+        """HAS_NEXT -> DO_KINEMATICS -> DO_KINEMATICS_STANDBY: both arms solved for the next
+        target of this point (the suction pose, the cutting hand's standby). Best effort: no next
+        target or no solution leaves a goal empty, and PLACE returns the left arm home."""
+        cb = self.cb
         sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
-                                input_keys=['targets'])
+                                input_keys=['targets'], output_keys=['next_goal', 'standby_goal'])
+        sm.userdata.next_goal = []
+        sm.userdata.standby_goal = []
+        with sm:
+            # the goals of the last fruit's plan are cleared first: none may be taken again
+            add('HAS_NEXT', Decide(cb.plan_next, ['next', 'none'], input_keys=['targets'],
+                                   output_keys=['next_goal', 'standby_goal']),
+                transitions={'next': 'DO_KINEMATICS', 'none': 'succeeded'})
+            add('DO_KINEMATICS', self.action(
+                'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=cb.next_suction_goal,
+                input_keys=['targets'], output_keys=['next_goal'],
+                result_cb=cb.solution_into('next_goal'), outcomes=['unreachable']),
+                transitions={'succeeded': 'DO_KINEMATICS_STANDBY', 'unreachable': 'succeeded',
+                             'aborted': 'succeeded'})
+            add('DO_KINEMATICS_STANDBY', self.action(
+                'DO_KINEMATICS', 'kinematics', KinematicsAction, goal_cb=cb.standby_goal_of('targets'),
+                input_keys=['targets'], output_keys=['standby_goal'],
+                result_cb=cb.solution_into('standby_goal'), outcomes=['unreachable']),
+                transitions={'unreachable': 'succeeded', 'aborted': 'succeeded'})
+        return sm
+
+    def to_box(self, next_key=None):
+        """DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR off [-> the next target's suction pose]:
+        the pose in userdata `next_key` (planned and cleared with the standby), else
+        NEXT_AHEAD."""
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
+                                input_keys=['targets'] + ([next_key] if next_key else []))
         ahead = not self.check_cut     # check_cut: the suction arm waits for the cut check
         with sm:
             add('DO_MOVE_ROBOT_BOX', self.move_fixed('DO_MOVE_ROBOT', ARM_RIGHT,
                                                      self.cfg['collection_box_right']),
                 transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
+            then = 'DO_MOVE_ROBOT_NEXT' if next_key else 'NEXT_AHEAD' if ahead else 'succeeded'
             add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF),
-                transitions={'succeeded': 'NEXT_AHEAD' if ahead else 'succeeded'})
-            if ahead:
+                transitions={'succeeded': then})
+            if next_key:
+                add('DO_MOVE_ROBOT_NEXT', self.action(
+                    'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_RIGHT,
+                    goal_cb=self.cb.move_goal(ARM_RIGHT, next_key), input_keys=[next_key],
+                    result_cb=self.cb.move_result))
+            elif ahead:
                 add('NEXT_AHEAD', self.next_ahead(), transitions={'succeeded': 'succeeded'})
         return sm
 
@@ -252,6 +375,7 @@ class _PipelinedCallbacks(_Callbacks):
         self.home_left = tuple(float(v) for v in cfg['home']['left'])
         self.box_right = tuple(float(v) for v in cfg['collection_box_right'])
         self.margin = float(cfg['overlap_margin'])
+        self.standby_standoff = float(cfg['standby_standoff'])
 
     # --- goals and results ---------------------------------------------------------------------
     def pull_solution(self, ud, status, result):
@@ -281,8 +405,49 @@ class _PipelinedCallbacks(_Callbacks):
     def has_next(self, ud):
         return 'next' if ud.targets else 'none'
 
+    def plan_next(self, ud):
+        """has_next(), the plan's goals emptied first."""
+        ud.next_goal = []
+        ud.standby_goal = []
+        return self.has_next(ud)
+
     def next_suction_goal(self, ud, goal):
         return goals.suction_kinematics_goal(ud.targets[0])
+
+    def standby_goal_of(self, key):
+        """goal_cb: the cutting hand's standby by the target in userdata `key` (`targets`: the
+        next one)."""
+        def cb(ud, goal):
+            target = ud.targets[0] if key == 'targets' else ud[key]
+            return goals.cutting_kinematics_goal(target, self.peduncle_gap,
+                                                 self.approach + self.standby_standoff)
+        return cb
+
+    def solution_into(self, key):
+        """result_cb: the joints solved into userdata `key` (empty when none: 'unreachable')."""
+        def cb(ud, status, result):
+            joints, reason = goals.kinematics_solution(result)
+            solved = [] if reason is not None or joints is None else joints
+            ud[key] = solved
+            return None if solved else 'unreachable'
+        return cb
+
+    def waiting(self, ud):
+        """'waiting' when the cutting hand is at the standby it was sent to by this target,
+        else 'free'."""
+        c = self.context
+        joints = c.arm_joints('left')
+        if c.standby is not None and joints is not None and c.standby[0] == ud.target.id and \
+                mission_lib.distance(joints, c.standby[1]) <= HOME_TOLERANCE:
+            return 'waiting'
+        return 'free'
+
+    def left_away(self, ud):
+        """'away' when the cutting hand is not at home (waiting by this target), else 'home'."""
+        joints = self.context.arm_joints('left')
+        if joints is not None and mission_lib.distance(joints, self.home_left) <= HOME_TOLERANCE:
+            return 'home'
+        return 'away'
 
     def next_solution(self, ud, status, result):
         joints, reason = goals.kinematics_solution(result)
@@ -297,7 +462,37 @@ class _PipelinedCallbacks(_Callbacks):
             return 'alone'
         return self._step('APPROACH', {'left': ud.joint_goal, 'right': ud.pull_goal})
 
+    def reach_step(self, ud):
+        step = self._step('REACH', {'left': ud.standby_goal, 'right': ud.joint_goal})
+        if step == 'overlap':
+            self.context.standby = (ud.target.id, tuple(ud.standby_goal))
+        return step
+
     def place_step(self, ud):
+        """'standby' when the left arm may go to its standby by the next target while the right
+        arm goes to the box and then to that target's suction pose (both legs checked against
+        the left arm's whole way); else PLACE as before, the left arm home."""
+        if ud.standby_goal and ud.next_goal:
+            c = self.context
+            starts = {'left': c.arm_joints('left'), 'right': c.arm_joints('right')}
+            legs = [(starts, {'left': ud.standby_goal, 'right': self.box_right}),
+                    ({'left': starts['left'], 'right': self.box_right},
+                     {'left': ud.standby_goal, 'right': ud.next_goal})]
+            why = None
+            for leg_starts, leg_goals in legs:
+                verdict = mission_lib.schedule_step(c.geometry, leg_starts, leg_goals,
+                                                    self.margin, waist=c.waist())
+                if not verdict.clear:
+                    why = verdict.why
+                    break
+            c.recorder.note_step('STANDBY', why is None)
+            if why is None:
+                c.standby = (ud.targets[0].id, tuple(ud.standby_goal))
+                c.recorder.note_step('PLACE', True)
+                rospy.loginfo('executive: PLACE overlapped, the cutting hand waits by the next '
+                              'target')
+                return 'standby'
+            rospy.loginfo('executive: no standby by the next target (%s); left arm home', why)
         return self._step('PLACE', {'left': self.home_left, 'right': self.box_right})
 
     def next_step(self, ud):

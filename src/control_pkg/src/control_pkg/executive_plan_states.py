@@ -120,11 +120,12 @@ class Decide(smach.State):
     """A decision between branches of the graph: `decide(ud)` (the executive's callbacks, over
     pure functions) returns one of `outcomes`.
 
-    Outcomes: as given. Input keys: as given.
+    Outcomes: as given. Input and output keys: as given.
     """
 
-    def __init__(self, decide, outcomes, input_keys=()):
-        smach.State.__init__(self, outcomes=list(outcomes), input_keys=list(input_keys))
+    def __init__(self, decide, outcomes, input_keys=(), output_keys=()):
+        smach.State.__init__(self, outcomes=list(outcomes), input_keys=list(input_keys),
+                             output_keys=list(output_keys))
         self._decide = decide
 
     def execute(self, ud):

@@ -47,6 +47,8 @@ class MissionContext(object):
         self.geometry = None
         self.gate = None
         self._joints = {}
+        # (target id, joints) of the cutting hand's standby by a target, once it was sent there
+        self.standby = None
         # crash-safe continuation (checkpoint.py): the progress as it goes (published at every
         # transition that matters), the plan of a resumed mission and the targets recorded
         # before the restart, per picking point (positions, skipped after the scan there)

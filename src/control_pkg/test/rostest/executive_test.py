@@ -203,8 +203,16 @@ class ExecutiveTest(unittest.TestCase):
         self.assertEqual(by_id, {1: PickRecord.OUTCOME_PICKED, 2: PickRecord.OUTCOME_UNREACHABLE,
                                  3: PickRecord.OUTCOME_LOST, 4: PickRecord.OUTCOME_PICKED})
         overlaps = s.get('overlaps', {})
-        for step in ('APPROACH', 'PLACE', 'NEXT_AHEAD'):
+        # left_standby: the cutting hand goes to its standby by the first target of the point
+        # beside the suction arm (REACH) and waits by the next one after a fruit (STANDBY);
+        # without it, the suction arm goes for the next target alone (NEXT_AHEAD)
+        standby = rospy.get_param('/task_planner/left_standby')
+        steps = ('REACH', 'STANDBY') if standby else ('NEXT_AHEAD', )
+        for step in ('APPROACH', 'PLACE') + steps:
             self.assertGreaterEqual(overlaps.get(step, {}).get('overlapped', 0), 1, s)
+        if not standby:
+            self.assertNotIn('REACH', overlaps, s)
+            self.assertNotIn('STANDBY', overlaps, s)
         left = '/SM_ROOT/RUN/MISSION/PICK_TARGET/LEFT_ARM'
         paths = [left + '/APPROACH', '/SM_ROOT/RUN/MISSION/PICK_TARGET/PLACE/PLACE_AND_RETURN']
         self.assertTrue(w.wait(lambda: all(p in w.structures for p in paths)),
@@ -220,6 +228,26 @@ class ExecutiveTest(unittest.TestCase):
         self.assertEqual(ee[:4], ['end_effector %d' % c for c in (
             EndEffectorGoal.SUCTION_ON, EndEffectorGoal.SHEAR_CUT, EndEffectorGoal.SUCTION_OFF,
             EndEffectorGoal.SUCTION_ON)], w.goals)
+
+    def check_standby(self):
+        """left_standby: after fruit 1 the cutting hand waits by target 2 (PLACE_AND_PARK, both
+        arms' goals planned); the suction arm's new solution for 2 is refused, so before that
+        target is skipped the waiting hand goes home (LEAVE_STANDBY: the skipped target's one
+        move), and target 3 is picked after it."""
+        w = self.w
+        s = self.start_and_finish()
+        self.assertEqual((s['picked'], s['unreachable'], s['lost'], s['failed']), (2, 1, 0, 0), s)
+        self.assertEqual(s['overlaps'].get('STANDBY', {}).get('overlapped'), 1, s)
+        park = '/SM_ROOT/RUN/MISSION/PICK_TARGET/PLACE/PLACE_AND_PARK'
+        self.assertTrue(w.wait(lambda: park in w.structures),
+                        'structures seen: %s' % sorted(w.structures))
+        self.assertEqual(sorted(w.structures[park].children), ['DO_MOVE_ROBOT', 'TO_BOX'])
+        self.assertTrue(w.wait(lambda: len(w.records) == 3), 'expected 3 pick records')
+        skipped = [r for r in w.records if r.outcome == PickRecord.OUTCOME_UNREACHABLE]
+        self.assertEqual([r.target_id for r in skipped], [2])
+        # the only move of the skipped target is the waiting hand's way home
+        self.assertEqual([n for n in skipped[0].state_names if n == 'DO_MOVE_ROBOT'],
+                         ['DO_MOVE_ROBOT'], skipped[0].state_names)
 
     def check_resume(self):
         """A restarted task planner (~starts 1 given: this is its second start) with the mock's

@@ -3,8 +3,10 @@
 
 Params:
   ~points (int): number of picking points (sets /track/picking_points)
-  ~targets (dict: point index as string -> list of {id, unreachable?, unreachable_left?, lose?}):
-      pickable tomatoes (unreachable_left: only the cutting arm cannot reach it)
+  ~targets (dict: point index as string -> list of {id, unreachable?, unreachable_left?,
+      unreachable_right_later?, lose?}): pickable tomatoes (unreachable_left: only the cutting
+      arm cannot reach it; unreachable_right_later: the suction arm's first solution for it is
+      found, the later ones are not, as when the other arm waits in the way)
   ~missing (list of action names): servers NOT started (a component missing at start)
   ~move_duration (float, s): how long a MoveRobot goal takes (preemptable)
   ~per_arm_moves (bool, false): move_robot runs one goal per arm at once (else one goal: a
@@ -54,6 +56,7 @@ class MockServers(object):
         self.halt_event = threading.Event()
         self.picked = set()
         self.by_position = {}
+        self.right_solved = {}       # y -> suction-arm kinematics goals for that target
         self._halt_pub = rospy.Publisher('mock/halt_count', Int32, queue_size=1, latch=True)
         self._goal_pub = rospy.Publisher('mock/goals', String, queue_size=100)
         self._status_pub = rospy.Publisher('motion_status', DiagnosticStatus, queue_size=1, latch=True)
@@ -161,9 +164,13 @@ class MockServers(object):
         self.spatial_temporal_server.set_succeeded(SpatialTemporalResult(success=True, stored=0))
 
     def kinematics(self, goal):
-        spec = self.by_position.get(round(goal.target.point.y, 4), {})
+        y = round(goal.target.point.y, 4)
+        spec = self.by_position.get(y, {})
         result = KinematicsResult()
-        if spec.get('unreachable') or (goal.arm and spec.get('unreachable_left')):
+        if not goal.arm:
+            self.right_solved[y] = self.right_solved.get(y, 0) + 1
+        refused = not goal.arm and spec.get('unreachable_right_later') and self.right_solved[y] > 1
+        if spec.get('unreachable') or (goal.arm and spec.get('unreachable_left')) or refused:
             result.reachable = False
             result.reason = 'beyond reach (mock)'
         else:
