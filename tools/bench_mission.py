@@ -7,6 +7,7 @@ no more than three targets are in view).
 
   python tools/bench_mission.py [--scenario three_targets --scenario default ...]
   python tools/bench_mission.py --compare [--repeat N] [--scenario ...]
+                                [--pipelined-servo-mode continuous]
 
 --compare runs both task-planner schedules (`paper`, `pipelined`) on the same scenarios in one
 run and prints, per scenario and overall, the mean s/fruit (sim) of each and their ratio
@@ -33,7 +34,7 @@ COLLECTED, DROPPED, DAMAGED = 3, 4, 5
 PICKED = 'picked'   # a pick record's outcome (tools/run_demo.py --json)
 
 
-def run_one(name, time_scale, timeout, schedule=None, json_path=None, log=None):
+def run_one(name, time_scale, timeout, schedule=None, json_path=None, log=None, servo_mode=None):
     """One mission through run_demo.py in its own process (rospy cannot change masters):
     the groups of its closing line, or None."""
     demo = os.path.join(os.path.dirname(os.path.abspath(__file__)), 'run_demo.py')
@@ -43,6 +44,8 @@ def run_one(name, time_scale, timeout, schedule=None, json_path=None, log=None):
         cmd += ['--schedule', schedule]
     if json_path:
         cmd += ['--json', json_path]
+    if servo_mode:
+        cmd += ['--servo-mode', servo_mode]
     out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                          universal_newlines=True)
     for line in out.stdout.splitlines():
@@ -251,7 +254,7 @@ def print_comparison(runs, out=sys.stdout):
     return result
 
 
-def run_compare(scenarios, repeat, time_scale, timeout):
+def run_compare(scenarios, repeat, time_scale, timeout, pipelined_servo_mode=None):
     runs = {}
     tmp = tempfile.mkdtemp(prefix='bench_mission_')
     for scenario in scenarios:
@@ -259,7 +262,8 @@ def run_compare(scenarios, repeat, time_scale, timeout):
             for schedule in SCHEDULES:
                 path = os.path.join(tmp, '%s_%s_%d.json' % (scenario, schedule, i))
                 got = run_one(scenario, time_scale, timeout, schedule, path,
-                              log='bench_%s_%s.log' % (scenario, schedule))
+                              log='bench_%s_%s.log' % (scenario, schedule),
+                              servo_mode=pipelined_servo_mode if schedule == 'pipelined' else None)
                 if got is None or not os.path.exists(path):
                     print('%-16s %-10s failed: see bench_%s_%s.log' % (scenario, schedule,
                                                                        scenario, schedule))
@@ -287,10 +291,16 @@ def main():
                         help='both schedules (paper, pipelined) on the same scenarios')
     parser.add_argument('--repeat', type=int, default=1, help='--compare: missions per scenario '
                         'and schedule')
+    parser.add_argument('--pipelined-servo-mode', choices=('step', 'continuous'),
+                        help="--compare: the visual servo's mode of the pipelined runs (default: "
+                        "the paper's step, as in the paper runs)")
     args = parser.parse_args()
     if args.compare:
+        if args.pipelined_servo_mode:
+            print('pipelined runs with the visual servo in %s mode; paper runs in step mode'
+                  % args.pipelined_servo_mode)
         return run_compare(args.scenario or DEFAULT_SCENARIOS, max(1, args.repeat),
-                           args.time_scale, args.timeout)
+                           args.time_scale, args.timeout, args.pipelined_servo_mode)
     weighted, fruit = 0.0, 0
     print('%-16s %8s %8s %8s %10s %16s' % ('scenario', 'picked', 'ripe+r', 'damaged', 'wall [s]', 'cycle [s/fruit]'))
     for name in args.scenario or DEFAULT_SCENARIOS:

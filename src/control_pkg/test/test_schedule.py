@@ -374,3 +374,28 @@ def test_a_plan_for_the_next_target_starts_empty_and_none_means_home(geometry):
     assert 'STANDBY' not in c.recorder.totals().get('overlaps', {})
     assert c.standby is None
     assert cb.left_away(_Ud()) == 'away'
+
+
+def test_the_coarse_first_look_never_changes_a_verdict(geometry):
+    """overlap_clear's coarse look only decides moves the fine look would clear too."""
+    rng = random.Random(11)
+    fruit = [(0.42 + 0.1 * rng.random(), -0.3 + 0.4 * rng.random(), 0.9 + 0.2 * rng.random())
+             for _ in range(12)]
+    poses = {'left': [HOME_LEFT], 'right': [BOX_RIGHT]}
+    for p in fruit:
+        for arm, standoff in (('left', 0.08), ('right', 0.035)):
+            joints = geometry.inverse(arm, p, standoff=standoff).joints
+            if joints is not None:
+                poses[arm].append(joints)
+    fast = same = 0
+    for _ in range(60):
+        starts = {arm: rng.choice(poses[arm]) for arm in ('left', 'right')}
+        goals_ = {arm: rng.choice(poses[arm]) for arm in ('left', 'right')}
+        coarse = m.overlap_clear(geometry, starts, goals_, geometry.arm_clearance + 0.01,
+                                 floor=geometry.arm_clearance)
+        fine = m.overlap_clear(geometry, starts, goals_, geometry.arm_clearance + 0.01,
+                               floor=geometry.arm_clearance, coarse=1.0)
+        assert coarse.clear == fine.clear, (starts, goals_, coarse.why, fine.why)
+        same += 1
+        fast += coarse.clear and coarse.distance != fine.distance
+    assert same == 60 and fast > 10          # the coarse look did decide many of them

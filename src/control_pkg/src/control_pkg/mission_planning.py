@@ -189,7 +189,7 @@ class OverlapVerdict(object):
 START_TOLERANCE = 0.001
 
 
-def overlap_clear(geometry, starts, goals, clearance, resolution=0.01, floor=None):
+def overlap_clear(geometry, starts, goals, clearance, resolution=0.01, floor=None, coarse=3.0):
     """May the two arms move from `starts` to `goals` ({'left': joints, 'right': joints};
     a goal None = that arm rests) at the same time?
 
@@ -200,7 +200,11 @@ def overlap_clear(geometry, starts, goals, clearance, resolution=0.01, floor=Non
     motion_pkg's kinematics keeps `arm_clearance` apart. Clear when the smallest distance found
     is `clearance` + `resolution` (the sampling's own error), or, for arms that start closer
     than that (both hands at one fruit), when they never come closer than they start; and in
-    any case `floor` (default `clearance`) + `resolution`. An unknown start is not clear."""
+    any case `floor` (default `clearance`) + `resolution`. An unknown start is not clear.
+
+    A first look at `coarse` x `resolution` (paths sampled that much more sparsely) decides the
+    moves that keep far apart: clear when even that look finds `clearance` + `resolution`
+    plus its own error, which the fine look would then find too."""
     floor = clearance if floor is None else floor
     for arm in ('left', 'right'):
         if starts.get(arm) is None:
@@ -216,10 +220,18 @@ def overlap_clear(geometry, starts, goals, clearance, resolution=0.01, floor=Non
     # configuration of an arm on its way is within `resolution` / 2 of a compared one
     reach = geometry.boom + geometry.forearm + geometry.tool
     tool_speed = speeds[0] + reach * speeds[1] + (geometry.forearm + geometry.tool) * speeds[2]
-    dt = resolution / 8.0 / tool_speed
-    paths = {arm: arm_path(starts[arm], goals.get(arm), speeds, accels, dt)
-             for arm in ('left', 'right')}
-    distance = arms_min_distance(geometry, paths['left'], paths['right'], 0.375 * resolution)
+
+    def smallest(step):
+        dt = step / 8.0 / tool_speed
+        paths = {arm: arm_path(starts[arm], goals.get(arm), speeds, accels, dt)
+                 for arm in ('left', 'right')}
+        return paths, arms_min_distance(geometry, paths['left'], paths['right'], 0.375 * step)
+
+    if coarse > 1.0:
+        _, distance = smallest(coarse * resolution)
+        if distance >= max(clearance, floor) + resolution + coarse * resolution:
+            return OverlapVerdict(True, distance)
+    paths, distance = smallest(resolution)
     at_start = arms_min_distance(geometry, paths['left'][:1], paths['right'][:1])
     if distance < floor + resolution:
         return OverlapVerdict(False, distance, 'the arms would come %.3f m close (< %.3f m)'
