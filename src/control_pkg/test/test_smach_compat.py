@@ -209,6 +209,31 @@ def test_working_smach_ros_is_used(tmp_path):
     assert _WARNING not in stderr
 
 
+def test_smach_info_lines_go_to_debug_with_either_layer(tmp_path):
+    """SMACH's per-transition info lines are rospy DEBUG (they cost the executive ~0.5 ms
+    each); its warnings and errors stay warnings and errors."""
+    probe = ('import rospy, smach\n'
+             'import control_pkg.smach_compat as c\n'
+             'c.SimpleActionState\n'
+             'print("LOGGERS", smach.loginfo is rospy.logdebug, smach.logwarn is rospy.logwarn, '
+             'smach.logerr is rospy.logerr)\n')
+    for smach_ros_init in (None, 'import rospy, smach\n'
+                                 'smach.set_loggers(rospy.loginfo, rospy.logwarn, '
+                                 'rospy.logdebug, rospy.logerr)\n'
+                                 'class SimpleActionState(object):\n    pass\n'
+                                 'class IntrospectionServer(object):\n    pass\n'):
+        env = dict(os.environ)
+        if smach_ros_init is not None:
+            package = tmp_path / 'smach_ros'
+            package.mkdir()
+            (package / '__init__.py').write_text(smach_ros_init)
+            env['PYTHONPATH'] = os.pathsep.join([str(tmp_path)] + [p for p in [env.get('PYTHONPATH')] if p])
+        proc = subprocess.run([sys.executable, '-c', probe], env=env, stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, universal_newlines=True)
+        assert proc.returncode == 0, proc.stderr
+        assert 'LOGGERS True True True' in proc.stdout, (smach_ros_init, proc.stdout)
+
+
 def test_no_smach_ros_falls_back_quietly(tmp_path):
     if subprocess.call([sys.executable, '-c', 'import smach_ros'], stderr=subprocess.DEVNULL) == 0:
         skip_optional('smach_ros is installed here')   # not by tools/setup.sh: Debian has none

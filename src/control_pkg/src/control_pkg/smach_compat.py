@@ -43,7 +43,8 @@ stop the node. Both names always come from the same layer. ``HAVE_SMACH_ROS`` te
 one (True: smach_ros). All three are resolved lazily (PEP 562 module ``__getattr__``), so
 importing ``smach`` from here needs neither rospy nor a ROS build: pure decision logic and
 its pytest tests stay ROS-free. Loading either ROS layer routes SMACH's log output to
-rospy and its shutdown check to ``rospy.is_shutdown``.
+rospy (its info lines at DEBUG level: ``_quiet_transitions``) and its shutdown check to
+``rospy.is_shutdown``.
 """
 import importlib
 import threading
@@ -134,6 +135,17 @@ def _load_ros_layer():
             for name in _ROS_NAMES:
                 globals()[name] = getattr(layer, name)
             globals()['HAVE_SMACH_ROS'] = have
+            _quiet_transitions()
+
+
+def _quiet_transitions():
+    """SMACH's info lines (one per transition, and at every container start one listing its
+    userdata) go to rospy's DEBUG level; warnings and errors stay. Each line costs about
+    0.5 ms on the task planner's path between two action states (measured: the executive
+    overhead of a pipelined mission fell from 5.8 to 2.5 ms median), and the transitions are
+    on the introspection topics and in the executive's own events anyway."""
+    import rospy
+    smach.set_loggers(rospy.logdebug, rospy.logwarn, rospy.logdebug, rospy.logerr)
 
 
 def __getattr__(name):
