@@ -80,6 +80,19 @@ for xml in src/*/package.xml; do
   done < <(grep -x "run_tests_${pkg}_[a-z-]*" <<<"$TARGETS")      # <type>: rostest, gtest...
 done
 
+# the longest pytest targets first (harvest_sim about 55 s, network_pkg and control_pkg about
+# 20 s each in a loaded run): at -j2 the short ones then fill in beside them instead of leaving
+# one long target alone at the end
+LONG_PYTESTS=(run_tests_harvest_sim_pytest run_tests_network_pkg_pytest run_tests_control_pkg_pytest)
+ORDERED=()
+for target in "${LONG_PYTESTS[@]}"; do
+  for t in "${PYTEST_TARGETS[@]}"; do [ "$t" = "$target" ] && ORDERED+=("$t"); done
+done
+for t in "${PYTEST_TARGETS[@]}"; do
+  case " ${LONG_PYTESTS[*]} " in *" $t "*) ;; *) ORDERED+=("$t");; esac
+done
+PYTEST_TARGETS=("${ORDERED[@]}")
+
 echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the other packages' rostests, then every package's pytest"
 # Two lanes, plain make in the build directory catkin_make configured (tools/setup.sh); two
 # catkin_make at once race on build/catkin_make.cache and both run cmake in the same directory.
