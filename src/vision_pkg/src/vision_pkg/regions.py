@@ -305,8 +305,10 @@ class RegionSplitter(object):
             x0 = max(int(math.floor(cx - r)) - 1, 0)
             y0 = max(int(math.floor(cy - r)) - 1, 0)
             crop = part[y0:int(math.ceil(cy + r)) + 2, x0:int(math.ceil(cx + r)) + 2]
+            # the outline pixels' centres lie half a pixel inside the fruit's edge: r + 0.5
             results.append(Detection(
-                (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, r / scale, score,
+                (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, (r + 0.5) / scale,
+                score,
                 mask=crop.copy(), mask_origin=(x0 + ox, y0 + oy), mask_scale=scale,
                 fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma,
                 behind=index in in_front))
