@@ -81,8 +81,8 @@ for xml in src/*/package.xml; do
 done
 
 # the longest pytest targets first (harvest_sim about 55 s, network_pkg and control_pkg about
-# 20 s each in a loaded run): at -j2 the short ones then fill in beside them instead of leaving
-# one long target alone at the end
+# 20 s each in a loaded run): two at a time, the short ones then fill in beside them instead of
+# leaving one long target alone at the end
 LONG_PYTESTS=(run_tests_harvest_sim_pytest run_tests_network_pkg_pytest run_tests_control_pkg_pytest)
 ORDERED=()
 for target in "${LONG_PYTESTS[@]}"; do
@@ -98,10 +98,12 @@ echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the
 # catkin_make at once race on build/catkin_make.cache and both run cmake in the same directory.
 # Lane 1: the whole-mission rostests of harvest_bringup, one at a time (made to be as correct on a
 # busy machine as on a quiet one; two at a time each took 1.7x as long), from the start: they are
-# the longest chain. Lane 2: the other packages' rostests, three targets at a time (every rostest
-# has its own master on a free port, each test file that runs a simulated controller its own
-# Modbus port, the Xvfb tests a free display; most wait on mock servers and timers, not on the
-# CPU), then every package's pytest target (pure logic, no master), two at a time.
+# the longest chain. Lane 2: the other packages' rostests (every rostest has its own master on a
+# free port, each test file that runs a simulated controller its own Modbus port, the Xvfb tests
+# a free display), then every package's pytest target (pure logic, no master), two make
+# processes at a time (make_each). CMake's top-level Makefile is .NOTPARALLEL: one make given
+# several goals runs them one after another whatever its -j, so the rostests' -j3 below runs
+# them one at a time (as they have always run; parallel rostests are not tried here).
 # every run_tests target depends on `tests` (the gtest binaries): built once here, before the lanes,
 # so the two makes never compile the same file at once; catkin_make, whose configure check
 # settles the build directory (the first plain make after tools/setup.sh ran cmake again and
@@ -114,8 +116,19 @@ MISSION_PID=$!
 if ! make -C "$ROOT/build" "${ROSTEST_TARGETS[@]}" -j3 > "$RESULTS/rostest.log" 2>&1; then
   tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
 fi
+# make_each JOBS LOG TARGET...: one make process per target, JOBS at a time, each into its own
+# log; LOG gets them in the order given; fails when one of them failed
+make_each() {
+  local jobs=$1 log=$2 dir="$RESULTS/make_each"
+  shift 2
+  rm -rf "$dir"; mkdir -p "$dir"
+  printf '%s\n' "$@" | xargs -P "$jobs" -I{} sh -c \
+    'make -C "$0/build" "$1" > "$2/$1.log" 2>&1 || echo "$1" >> "$2/failed"' "$ROOT" {} "$dir"
+  for target in "$@"; do cat "$dir/$target.log"; done > "$log"
+  [ ! -s "$dir/failed" ]
+}
 echo "=== pytest (pure logic, no ROS master): ${PYTEST_TARGETS[*]#run_tests_}"
-if ! make -C "$ROOT/build" "${PYTEST_TARGETS[@]}" -j2 > "$RESULTS/pytest.log" 2>&1; then
+if ! make_each 2 "$RESULTS/pytest.log" "${PYTEST_TARGETS[@]}"; then
   tail -80 "$RESULTS/pytest.log"; FAILED_STEPS+=(pytest-build)
 fi
 if ! wait $MISSION_PID; then
