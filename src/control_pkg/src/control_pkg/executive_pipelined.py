@@ -170,14 +170,8 @@ class PipelinedGraph(_Graph):
                                      input_keys=['target', 'joint_goal', 'standby_goal']),
                transitions={'overlap': 'REACH', 'sequential': 'DO_MOVE_ROBOT'})
         sm_add('REACH', _overlap(
-            [('DO_MOVE_ROBOT', self.action(
-                'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_RIGHT,
-                goal_cb=cb.move_goal(ARM_RIGHT), input_keys=['joint_goal'],
-                result_cb=cb.move_result)),
-             ('DO_MOVE_ROBOT_STANDBY', self.action(
-                 'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_LEFT,
-                 goal_cb=cb.move_goal(ARM_LEFT, 'standby_goal'), input_keys=['standby_goal'],
-                 result_cb=cb.move_result))],
+            [('DO_MOVE_ROBOT', self.move_to(ARM_RIGHT)),
+             ('DO_MOVE_ROBOT_STANDBY', self.move_to(ARM_LEFT, 'standby_goal'))],
             self.gate, 'right', input_keys=['joint_goal', 'standby_goal']),
             transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
 
@@ -202,7 +196,7 @@ class PipelinedGraph(_Graph):
             # taking turns, the pull goes first: the look at the held fruit then runs beside
             # the left arm's move
             add('APPROACH', _overlap(
-                [('DRAW_OUT', self.draw_out()), ('DO_MOVE_ROBOT', self.left_move())],
+                [('DRAW_OUT', self.draw_out()), ('DO_MOVE_ROBOT', self.move_to(ARM_LEFT))],
                 self.gate, 'right', input_keys=keys + ['joint_goal'], output_keys=['target']),
                 transitions={'succeeded': 'DO_VISUALSERVOING'})
             # not clear: the paper's order, the cutting hand solved again beside the pulled fruit
@@ -212,9 +206,10 @@ class PipelinedGraph(_Graph):
             self.add_cut()
         return sm
 
-    def left_move(self):
-        return self.action('DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_LEFT,
-                           goal_cb=self.cb.move_goal(ARM_LEFT), input_keys=['joint_goal'],
+    def move_to(self, arm, key='joint_goal'):
+        """DO_MOVE_ROBOT of `arm` to the joints in userdata `key`."""
+        return self.action('DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=arm,
+                           goal_cb=self.cb.move_goal(arm, key), input_keys=[key],
                            result_cb=self.cb.move_result)
 
     def draw_out(self):
@@ -256,10 +251,7 @@ class PipelinedGraph(_Graph):
             if self.standby:
                 # the box goes first when the moves take turns, as below
                 add('PLACE_AND_PARK', _overlap(
-                    [('DO_MOVE_ROBOT', self.action(
-                        'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_LEFT,
-                        goal_cb=cb.move_goal(ARM_LEFT, 'standby_goal'),
-                        input_keys=['standby_goal'], result_cb=cb.move_result)),
+                    [('DO_MOVE_ROBOT', self.move_to(ARM_LEFT, 'standby_goal')),
                      ('TO_BOX', self.to_box(next_key='next_goal'))],
                     self.gate, 'right', input_keys=['targets', 'next_goal', 'standby_goal']),
                     transitions={'succeeded': 'succeeded'})
@@ -321,10 +313,7 @@ class PipelinedGraph(_Graph):
             add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF),
                 transitions={'succeeded': then})
             if next_key:
-                add('DO_MOVE_ROBOT_NEXT', self.action(
-                    'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_RIGHT,
-                    goal_cb=self.cb.move_goal(ARM_RIGHT, next_key), input_keys=[next_key],
-                    result_cb=self.cb.move_result))
+                add('DO_MOVE_ROBOT_NEXT', self.move_to(ARM_RIGHT, next_key))
             elif ahead:
                 add('NEXT_AHEAD', self.next_ahead(), transitions={'succeeded': 'succeeded'})
         return sm
@@ -349,10 +338,7 @@ class PipelinedGraph(_Graph):
             add('CHECK_NEXT', Decide(cb.next_step, ['overlap', 'sequential'],
                                      input_keys=['joint_goal']),
                 transitions={'overlap': 'DO_MOVE_ROBOT', 'sequential': 'succeeded'})
-            add('DO_MOVE_ROBOT', self.action(
-                'DO_MOVE_ROBOT', 'move_robot', MoveRobotAction, arm=ARM_RIGHT,
-                goal_cb=cb.move_goal(ARM_RIGHT), input_keys=['joint_goal'],
-                result_cb=cb.move_result))
+            add('DO_MOVE_ROBOT', self.move_to(ARM_RIGHT))
         return sm
 
     def add_cut(self):
@@ -432,22 +418,22 @@ class _PipelinedCallbacks(_Callbacks):
             return None if solved else 'unreachable'
         return cb
 
+    def _left_at(self, joints):
+        """The cutting hand rests at `joints` (within HOME_TOLERANCE, joint space)."""
+        now = self.context.arm_joints('left')
+        return now is not None and mission_lib.distance(now, joints) <= HOME_TOLERANCE
+
     def waiting(self, ud):
         """'waiting' when the cutting hand is at the standby it was sent to by this target,
         else 'free'."""
-        c = self.context
-        joints = c.arm_joints('left')
-        if c.standby is not None and joints is not None and c.standby[0] == ud.target.id and \
-                mission_lib.distance(joints, c.standby[1]) <= HOME_TOLERANCE:
+        standby = self.context.standby
+        if standby is not None and standby[0] == ud.target.id and self._left_at(standby[1]):
             return 'waiting'
         return 'free'
 
     def left_away(self, ud):
         """'away' when the cutting hand is not at home (waiting by this target), else 'home'."""
-        joints = self.context.arm_joints('left')
-        if joints is not None and mission_lib.distance(joints, self.home_left) <= HOME_TOLERANCE:
-            return 'home'
-        return 'away'
+        return 'home' if self._left_at(self.home_left) else 'away'
 
     def next_solution(self, ud, status, result):
         joints, reason = goals.kinematics_solution(result)
@@ -474,35 +460,38 @@ class _PipelinedCallbacks(_Callbacks):
         the left arm's whole way); else PLACE as before, the left arm home."""
         if ud.standby_goal and ud.next_goal:
             c = self.context
-            starts = {'left': c.arm_joints('left'), 'right': c.arm_joints('right')}
-            legs = [(starts, {'left': ud.standby_goal, 'right': self.box_right}),
-                    ({'left': starts['left'], 'right': self.box_right},
-                     {'left': ud.standby_goal, 'right': ud.next_goal})]
-            why = None
-            for leg_starts, leg_goals in legs:
-                verdict = mission_lib.schedule_step(c.geometry, leg_starts, leg_goals,
-                                                    self.margin, waist=c.waist())
-                if not verdict.clear:
-                    why = verdict.why
-                    break
-            c.recorder.note_step('STANDBY', why is None)
-            if why is None:
+            left = c.arm_joints('left')
+            # to the box, then from the box to the next suction pose: each leg against the
+            # left arm's whole way to its standby
+            legs = [({'left': left, 'right': c.arm_joints('right')}, self.box_right),
+                    ({'left': left, 'right': self.box_right}, ud.next_goal)]
+            verdicts = (self._verdict(starts, {'left': ud.standby_goal, 'right': right})
+                        for starts, right in legs)
+            blocked = next((v for v in verdicts if not v.clear), None)
+            c.recorder.note_step('STANDBY', blocked is None)
+            if blocked is None:
                 c.standby = (ud.targets[0].id, tuple(ud.standby_goal))
                 c.recorder.note_step('PLACE', True)
                 rospy.loginfo('executive: PLACE overlapped, the cutting hand waits by the next '
                               'target')
                 return 'standby'
-            rospy.loginfo('executive: no standby by the next target (%s); left arm home', why)
+            rospy.loginfo('executive: no standby by the next target (%s); left arm home',
+                          blocked.why)
         return self._step('PLACE', {'left': self.home_left, 'right': self.box_right})
 
     def next_step(self, ud):
         return self._step('NEXT_AHEAD', {'left': self.home_left, 'right': ud.joint_goal})
 
+    def _verdict(self, starts, goals_by_arm):
+        """schedule_step of the arms from `starts` to `goals_by_arm` at the mission's margin."""
+        c = self.context
+        return mission_lib.schedule_step(c.geometry, starts, goals_by_arm, self.margin,
+                                         waist=c.waist())
+
     def _step(self, step, goals_by_arm):
         c = self.context
-        starts = {'left': c.arm_joints('left'), 'right': c.arm_joints('right')}
-        verdict = mission_lib.schedule_step(c.geometry, starts, goals_by_arm, self.margin,
-                                            waist=c.waist())
+        verdict = self._verdict({'left': c.arm_joints('left'), 'right': c.arm_joints('right')},
+                                goals_by_arm)
         c.recorder.note_step(step, verdict.clear)
         if verdict.clear:
             rospy.loginfo('executive: %s overlapped (arms at least %.3f m apart)', step,
