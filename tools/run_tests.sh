@@ -81,8 +81,7 @@ for xml in src/*/package.xml; do
 done
 
 # the longest pytest targets first (harvest_sim about 55 s, network_pkg and control_pkg about
-# 20 s each in a loaded run): two at a time, the short ones then fill in beside them instead of
-# leaving one long target alone at the end
+# 20 s each in a loaded run), so that the lane ends with short ones
 LONG_PYTESTS=(run_tests_harvest_sim_pytest run_tests_network_pkg_pytest run_tests_control_pkg_pytest)
 ORDERED=()
 for target in "${LONG_PYTESTS[@]}"; do
@@ -100,21 +99,17 @@ echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the
 # busy machine as on a quiet one; two at a time each took 1.7x as long), from the start: they are
 # the longest chain. Lane 2: the other packages' rostests (every rostest has its own master on a
 # free port, each test file that runs a simulated controller its own Modbus port, the Xvfb tests
-# a free display), then every package's pytest target (pure logic, no master), two make
-# processes at a time (make_each). CMake's top-level Makefile is .NOTPARALLEL: one make given
-# several goals runs them one after another whatever its -j, so the rostests' -j3 below runs
-# them one at a time (as they have always run; parallel rostests are not tried here).
+# a free display). Lane 3, also from the start: every package's pytest target (pure logic, no
+# master), one make process per target (make_each), the longest first; the rostests mostly
+# wait on mock servers and timers, so the pytests fill the CPU they leave. CMake's top-level
+# Makefile is .NOTPARALLEL: one make given several goals runs them one after another whatever
+# its -j, so the rostests' -j3 below runs them one at a time (parallel rostests not tried).
 # every run_tests target depends on `tests` (the gtest binaries): built once here, before the lanes,
 # so the two makes never compile the same file at once; catkin_make, whose configure check
 # settles the build directory (the first plain make after tools/setup.sh ran cmake again and
 # rewrote the devel space's Python packages while the other lane's tests imported them)
 if ! catkin_make -C "$ROOT" tests -j2 > "$RESULTS/tests-build.log" 2>&1; then
   tail -80 "$RESULTS/tests-build.log"; FAILED_STEPS+=(tests-build)
-fi
-make -C "$ROOT/build" "${MISSION_TARGETS[@]}" -j1 > "$RESULTS/mission.log" 2>&1 &
-MISSION_PID=$!
-if ! make -C "$ROOT/build" "${ROSTEST_TARGETS[@]}" -j3 > "$RESULTS/rostest.log" 2>&1; then
-  tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
 fi
 # make_each JOBS LOG TARGET...: one make process per target, JOBS at a time, each into its own
 # log; LOG gets them in the order given; fails when one of them failed
@@ -127,8 +122,15 @@ make_each() {
   for target in "$@"; do cat "$dir/$target.log"; done > "$log"
   [ ! -s "$dir/failed" ]
 }
-echo "=== pytest (pure logic, no ROS master): ${PYTEST_TARGETS[*]#run_tests_}"
-if ! make_each 2 "$RESULTS/pytest.log" "${PYTEST_TARGETS[@]}"; then
+make -C "$ROOT/build" "${MISSION_TARGETS[@]}" -j1 > "$RESULTS/mission.log" 2>&1 &
+MISSION_PID=$!
+echo "=== pytest (pure logic, no ROS master), from the start, one target at a time: ${PYTEST_TARGETS[*]#run_tests_}"
+make_each 1 "$RESULTS/pytest.log" "${PYTEST_TARGETS[@]}" &
+PYTEST_PID=$!
+if ! make -C "$ROOT/build" "${ROSTEST_TARGETS[@]}" -j3 > "$RESULTS/rostest.log" 2>&1; then
+  tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
+fi
+if ! wait $PYTEST_PID; then
   tail -80 "$RESULTS/pytest.log"; FAILED_STEPS+=(pytest-build)
 fi
 if ! wait $MISSION_PID; then
