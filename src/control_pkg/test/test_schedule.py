@@ -8,6 +8,7 @@ import threading
 import pytest
 
 from control_pkg import mission as m
+from control_pkg import mission_planning as planning
 from control_pkg import executive_goals as goals
 
 kinematics = pytest.importorskip('motion_pkg.kinematics')
@@ -376,8 +377,11 @@ def test_a_plan_for_the_next_target_starts_empty_and_none_means_home(geometry):
     assert cb.left_away(_Ud()) == 'away'
 
 
-def test_the_coarse_first_look_never_changes_a_verdict(geometry):
-    """overlap_clear's coarse look only decides moves the fine look would clear too."""
+def test_the_pruned_smallest_distance_is_the_one_of_every_pair(geometry):
+    """arms_min_distance prunes block pairs by their bounding boxes: over 60 random moves
+    between home, the box and the plant, sampled finely and coarsely, it gives exactly the
+    smallest distance of all sample pairs (and the pruning did skip work on many of them)."""
+    import numpy as np
     rng = random.Random(11)
     fruit = [(0.42 + 0.1 * rng.random(), -0.3 + 0.4 * rng.random(), 0.9 + 0.2 * rng.random())
              for _ in range(12)]
@@ -387,15 +391,34 @@ def test_the_coarse_first_look_never_changes_a_verdict(geometry):
             joints = geometry.inverse(arm, p, standoff=standoff).joints
             if joints is not None:
                 poses[arm].append(joints)
-    fast = same = 0
+    speeds = [geometry.speed[j] for j in ('lift', 'boom', 'forearm')]
+    accels = [3.0 * v for v in speeds]
+    pruned = 0
     for _ in range(60):
         starts = {arm: rng.choice(poses[arm]) for arm in ('left', 'right')}
         goals_ = {arm: rng.choice(poses[arm]) for arm in ('left', 'right')}
-        coarse = m.overlap_clear(geometry, starts, goals_, geometry.arm_clearance + 0.01,
-                                 floor=geometry.arm_clearance)
-        fine = m.overlap_clear(geometry, starts, goals_, geometry.arm_clearance + 0.01,
-                               floor=geometry.arm_clearance, coarse=1.0)
-        assert coarse.clear == fine.clear, (starts, goals_, coarse.why, fine.why)
-        same += 1
-        fast += coarse.clear and coarse.distance != fine.distance
-    assert same == 60 and fast > 10          # the coarse look did decide many of them
+        for dt in (0.004, 0.02):
+            a = planning.arm_segments(geometry, 'left', planning.arm_path(starts['left'], goals_['left'],
+                                                            speeds, accels, dt))
+            b = planning.arm_segments(geometry, 'right', planning.arm_path(starts['right'], goals_['right'],
+                                                             speeds, accels, dt))
+            every = float(planning._pairs_distance(a, b).min())
+            assert planning._min_segment_distance(a, b) == every
+            (alo, ahi), (blo, bhi) = planning._blocks(a, planning.DISTANCE_BLOCK), planning._blocks(b, planning.DISTANCE_BLOCK)
+            gap = np.maximum(np.maximum(alo[:, None] - bhi[None], blo[None] - ahi[:, None]), 0.0)
+            pruned += int((np.sqrt((gap * gap).sum(axis=2)) >= every).sum() > 0)
+    assert pruned > 30
+
+
+def test_block_bounds_hold_every_segment_of_their_block(geometry):
+    """The pruning is exact only if a block's box holds its segments: both ends and height."""
+    import numpy as np
+    speeds = [geometry.speed[j] for j in ('lift', 'boom', 'forearm')]
+    path = planning.arm_segments(geometry, 'right', planning.arm_path(BOX_RIGHT, HOME_LEFT, speeds,
+                                                        [3.0 * v for v in speeds], 0.003))
+    lo, hi = planning._blocks(path, 16)
+    for k in range(len(path[2])):
+        b = k // 16
+        for end in (path[0][k], path[1][k]):
+            assert np.all(lo[b, :2] <= end) and np.all(end <= hi[b, :2])
+        assert lo[b, 2] <= path[2][k] <= hi[b, 2]
