@@ -116,8 +116,9 @@ def test_points_on_fruit_only_inside_the_part():
 
 def test_a_fruit_seen_only_by_its_highlight_is_ranged_by_the_highlight_virtual_image():
     """In dim light a glossy fruit's skin has no texture: stereo matches only the highlight, the
-    light's virtual image R/2 behind the skin's front, so the skin model put the centre too far.
-    Given the image, those points are ranged as the virtual image."""
+    light's virtual image behind the skin, so the skin model put the centre too far. Given the
+    image, those points are ranged as the virtual image (at the depth the astigmatic mirror
+    puts it for the highlight's place on the disc)."""
     import cv2
     radius, centre = 0.035, np.array([0.03, -0.02, 0.55])       # right camera frame
     u0, v0 = scene.project(centre)
@@ -128,7 +129,9 @@ def test_a_fruit_seen_only_by_its_highlight_is_ranged_by_the_highlight_virtual_i
     cv2.circle(image, (int(round(gu)), int(round(gv))), 5, (200, 210, 250), -1)
     cloud = np.full((scene.HEIGHT, scene.WIDTH, 3), np.nan, np.float32)
     axis = centre / np.linalg.norm(centre)
-    virtual = np.linalg.norm(centre) - radius / 2.0      # depth of the virtual image along the axis
+    # depth of the virtual image along the axis: the centre's, less k R
+    k = float(localisation.virtual_image_factor(gu - u0, gv - v0, r_px))
+    virtual = np.linalg.norm(centre) - k * radius
     for dv in range(-4, 5):
         for du in range(-4, 5):
             if du * du + dv * dv > 16:
@@ -288,10 +291,33 @@ def test_centre_distances_of_points_on_a_sphere_are_its_centre_distance():
     rho = 0.8 * radius * np.sqrt(rng.random_sample(50))
     t = dist - np.sqrt(radius * radius - rho * rho)
     assert np.allclose(localisation.centre_distances(t, rho, sin_a), dist, atol=1e-12)
-    # a highlight point is the light's virtual image R/2 behind the front
+    # a highlight point seen head-on is the light's virtual image R/2 behind the front
     glint = localisation.centre_distances(np.array([dist - radius / 2.0]), np.zeros(1), sin_a,
                                           np.array([True]))
     assert glint[0] == pytest.approx(dist)
+    # off-centre, `factor` R in front of the centre (virtual_image_factor)
+    glint = localisation.centre_distances(np.array([dist - 0.2 * radius]), np.zeros(1), sin_a,
+                                          np.array([True]), np.array([0.2]))
+    assert glint[0] == pytest.approx(dist)
+
+
+def test_the_virtual_image_of_a_highlight_follows_the_mirror_astigmatism():
+    """k (the centre lies k R beyond the ranged virtual image): 1/2 head-on; at 45 degrees in a
+    vertical plane of incidence (a light above, the highlight at the top) the horizontal
+    baseline sees the sagittal focus f / cos 45 behind a mirror point R cos 45 in front of the
+    centre, so k = 0; in a horizontal plane the tangential focus f cos 45, k = cos 45 / 2.
+    Symmetric, scale-free, and capped at SPECULAR_MAX_SIN off the centre."""
+    f = localisation.virtual_image_factor
+    s45 = math.sqrt(0.5)
+    assert f(0.0, 0.0, 40.0) == pytest.approx(0.5)
+    assert f(0.0, -s45 * 40.0, 40.0, max_sin=0.9) == pytest.approx(0.0, abs=1e-12)
+    assert f(s45 * 40.0, 0.0, 40.0, max_sin=0.9) == pytest.approx(s45 / 2.0)
+    assert f(-s45 * 40.0, 0.0, 40.0, max_sin=0.9) == pytest.approx(s45 / 2.0)
+    assert f(3.0, 4.0, 20.0) == pytest.approx(f(6.0, 8.0, 40.0))
+    cap = localisation.SPECULAR_MAX_SIN
+    assert f(0.0, 39.0, 40.0) == pytest.approx(f(0.0, cap * 40.0, 40.0))
+    # an oblique plane lies between the two
+    assert f(0.0, -s45 * 40.0, 40.0, 0.9) < f(20.0, -20.0, 40.0, 0.9) < f(s45 * 40.0, 0.0, 40.0, 0.9)
 
 
 def test_fruit_radius_range_is_image_processings():

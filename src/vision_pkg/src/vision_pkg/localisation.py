@@ -17,14 +17,23 @@ alpha, gives the centre; only points with rho < EDGE_FRACTION * R are used, beca
 matching smears the disparity of the fruit rim onto the background and back.
 
 Glossy skin: the highlight of a light source in the skin is the source's virtual image in a
-convex mirror, about R/2 behind the skin's front (the focal point of a sphere of radius R, light
+convex mirror, behind the skin (the focal length R/2 behind its mirror point, seen head-on, light
 far away). Each eye sees it at a different point of the skin, so block matching ranges that
 virtual image, not the skin. Where the skin has texture of its own it outvotes the highlight;
 in dim light it has none, the highlight and its sheen are all that match, and the fruit came out
 12-15 mm too far (renders with one warm lamp at 40 % intensity: 3D error median 12.4 mm). Given
 the image the detection was made on, a point whose pixel is at least SPECULAR_RATIO times as
 bright (HSV value) as the median of the fruit's visible part is ranged as that virtual image:
-D_i = t + R/2.
+D_i = t + k R (`virtual_image_factor`). Seen head-on (a highlight at the disc centre) k = 1/2.
+Off-centre the mirror point's normal is at an angle theta from the view ray (sin theta = the
+pixel's offset from the circle's centre over its radius) and the reflected pencil is
+astigmatic (Coddington: focal length f cos theta in the plane of incidence, whose image is the
+line through the disc centre, f / cos theta across it, f = R/2); a horizontal baseline ranges
+the horizontal vergence cos^2 phi / f_t + sin^2 phi / f_s (phi between the image rows and that
+line), and the mirror point itself is R cos theta in front of the centre. A light from above
+mirrored at the top of the fruit at 45 degrees is thus ranged at the centre's own depth (k = 0),
+where R/2 put the fruit 15-17 mm too far (a low_light mission's cut missed by 15 mm). The angle
+is capped at SPECULAR_MAX_SIN (the rim's points are block matching's least sure).
 
 Occluders: the fruit's part can hold points of something in front of the fruit (a stem or leaf
 bridged into it, a neighbour), and where the skin has little texture they can be most of its
@@ -51,6 +60,9 @@ EDGE_FRACTION = 0.8
 MIN_POINTS = 12
 #: a point whose pixel is this many times as bright as the fruit's median is on its highlight
 SPECULAR_RATIO = 1.4
+#: highlight points further off the circle's centre than this fraction of its radius are
+#: ranged as if at it (virtual_image_factor)
+SPECULAR_MAX_SIN = 0.7
 #: centre-distance estimates further apart than this fraction of the radius are two surfaces
 CLUSTER_GAP = 0.5
 #: a fruit's 3D radius (m): image_processing.yaml min/max_fruit_radius, the suction sleeve's
@@ -203,16 +215,32 @@ def skin_colour_distance(image, detection, u, v, part=None):
     return np.linalg.norm(_chromaticity(_pixels(image, u, v)) - skin, axis=1)
 
 
-def centre_distances(t, lateral, sin_a, glint=None):
+def virtual_image_factor(du, dv, radius_px, max_sin=SPECULAR_MAX_SIN):
+    """Per highlight pixel at (du, dv) px from the circle's centre (radius radius_px): k such
+    that the fruit's centre lies k R beyond the depth at which a horizontal stereo pair ranges
+    the light's virtual image there (module docstring; 1/2 at the centre)."""
+    du = np.asarray(du, dtype=np.float64)
+    dv = np.asarray(dv, dtype=np.float64)
+    off = np.hypot(du, dv)
+    sin_t = np.minimum(off / float(radius_px), max_sin)
+    cos_t = np.sqrt(1.0 - sin_t * sin_t)
+    # cos^2 of the angle between the image rows and the plane of incidence (any, at the centre)
+    cos2_phi = np.where(off > 1e-9, du * du / np.maximum(off * off, 1e-18), 1.0)
+    focal_h = 0.5 / (cos2_phi / cos_t + (1.0 - cos2_phi) * cos_t)     # over R
+    return cos_t - focal_h
+
+
+def centre_distances(t, lateral, sin_a, glint=None, factor=0.5):
     """Per point at depth t along the centre ray and `lateral` from it: distance of the centre
     of the sphere of angular radius alpha on that ray whose front passes through the point
-    (|p - D axis| = D sin alpha, the far root); a highlight point is the virtual image R/2
-    behind the front, D = t / (1 - sin alpha / 2). Points outside the cone count as on it."""
+    (|p - D axis| = D sin alpha, the far root); a highlight point is a virtual image with the
+    centre `factor` R beyond it (per point, virtual_image_factor), D = t / (1 - factor sin
+    alpha). Points outside the cone count as on it."""
     cos2 = 1.0 - sin_a * sin_a
     disc = np.maximum(t * t * sin_a * sin_a - cos2 * lateral * lateral, 0.0)
     dist = (t + np.sqrt(disc)) / cos2
     if glint is not None:
-        dist = np.where(glint, t / (1.0 - 0.5 * sin_a), dist)
+        dist = np.where(glint, t / (1.0 - factor * sin_a), dist)
     return dist
 
 
@@ -258,6 +286,8 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
     part = part_pixels(image, detection) if image is not None else None
     glint = on_highlight(image, detection, pu, pv, specular_ratio, part) \
         if image is not None else np.zeros(len(pts), dtype=bool)
+    factor = virtual_image_factor(pu - detection.u, pv - detection.v, detection.radius_px) \
+        if glint.any() else np.full(len(pts), 0.5)
     offset = np.array([baseline, 0.0, 0.0])     # right camera centre in the left frame
     pr = pts - offset
     axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
@@ -268,7 +298,7 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
     if len(core) < min_points:
         return None
     if image is not None:
-        centre_d = centre_distances(t[core], lateral[core], sin_a, glint[core])
+        centre_d = centre_distances(t[core], lateral[core], sin_a, glint[core], factor[core])
         clusters = depth_clusters(centre_d, sin_a)
         colour = skin_colour_distance(image, detection, pu[core], pv[core], part) \
             if len(clusters) > 1 else None
@@ -279,6 +309,7 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
                 keep = core[fruit]
                 pts, pr, t, lateral, glint = pts[keep], pr[keep], t[keep], lateral[keep], \
                     glint[keep]
+                factor = factor[keep]
     # start: the median surface depth pushed back by the radius it implies
     t_med = float(np.median(t))
     dist = t_med / max(1.0 - sin_a, 1e-6) if sin_a < 1.0 else t_med
@@ -287,7 +318,7 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
         near = lateral < EDGE_FRACTION * radius
         if near.sum() < min_points:
             near = lateral <= np.partition(lateral, min_points - 1)[min_points - 1]
-        est = np.where(glint[near], t[near] + 0.5 * radius,
+        est = np.where(glint[near], t[near] + factor[near] * radius,
                        t[near] + np.sqrt(np.maximum(radius * radius - lateral[near] ** 2, 0.0)))
         dist = float(np.median(est))
         radius = dist * sin_a
