@@ -1,7 +1,6 @@
 """control_pkg.log_queue: log records written by a background thread, none lost, in order,
 with the caller's time, file and line."""
 import logging
-import os
 import threading
 
 from control_pkg import log_queue
@@ -11,12 +10,12 @@ class Collect(logging.Handler):
     def __init__(self):
         logging.Handler.__init__(self)
         self.records = []
-        self.threads = set()
+        self.threads = []          # the thread that emitted each record
         self.done = threading.Event()
 
     def emit(self, record):
         self.records.append(record)
-        self.threads.add(threading.current_thread().name)
+        self.threads.append(threading.current_thread().name)
         if record.getMessage() == 'last':
             self.done.set()
 
@@ -31,22 +30,31 @@ def _logger(name):
     return logger, own
 
 
+def _warn(logger, text):
+    logger.warning(text)       # one source line for a direct and a deferred record
+
+
 def test_records_arrive_in_order_from_another_thread_with_the_callers_line():
     logger, own = _logger('test_log_queue.order')
+    _warn(logger, 'direct')
     deferred = log_queue.DeferredLog('test_log_queue.order').start()
     try:
         for i in range(50):
             logger.info('line %d of %s', i, 'fifty')
-        logger.warning('last')
+        _warn(logger, 'last')
         own.done.wait(10.0)
     finally:
         deferred.stop()
     texts = [r.getMessage() for r in own.records]
-    assert texts == ['line %d of fifty' % i for i in range(50)] + ['last']
-    assert threading.current_thread().name not in own.threads
-    last = own.records[-1]
-    assert os.path.basename(last.pathname) == 'test_log_queue.py'
-    assert last.funcName == 'test_records_arrive_in_order_from_another_thread_with_the_callers_line'
+    assert texts == ['direct'] + ['line %d of fifty' % i for i in range(50)] + ['last']
+    here = threading.current_thread().name
+    assert own.threads[0] == here and here not in own.threads[1:]
+    direct, last = own.records[0], own.records[-1]
+    # made in the caller's thread: the same caller as a record written directly (whatever
+    # logger class finds it: rospy installs its own), the caller's thread, WARNING kept
+    assert (last.pathname, last.lineno, last.funcName) == \
+        (direct.pathname, direct.lineno, direct.funcName)
+    assert last.threadName == here
     assert last.levelno == logging.WARNING
     times = [r.created for r in own.records]
     assert times == sorted(times)
@@ -62,7 +70,7 @@ def test_stop_writes_what_is_queued_and_restores_the_handlers():
     assert logger.handlers == [own]
     logger.info('direct')
     assert own.records[-1].getMessage() == 'direct'
-    assert threading.current_thread().name in own.threads
+    assert own.threads[-1] == threading.current_thread().name
 
 
 def test_a_propagating_logger_reaches_the_root_handlers_once():
