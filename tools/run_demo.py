@@ -252,12 +252,17 @@ def main():
     parser.add_argument('--schedule', choices=SCHEDULES,
                         default=os.environ.get('HARVEST_SCHEDULE') or None,
                         help="the task planner's schedule (default: control_pkg executive.yaml's)")
+    parser.add_argument('--depth-probe', type=float, default=None, metavar='M',
+                        help='the visual servo first ranges the fruit with the hand camera from two poses M '
+                             'metres apart sideways (sim.launch depth_probe; default: its 0, off)')
     parser.add_argument('--servo-mode', choices=('step', 'continuous'), default=None,
                         help="the visual servo's mode (default: step, the paper's)")
     args = parser.parse_args()
     extra = ['schedule:=%s' % args.schedule] if args.schedule else []
     if args.servo_mode:
         extra.append('servo_mode:=%s' % args.servo_mode)
+    if args.depth_probe is not None:
+        extra.append('depth_probe:=%g' % args.depth_probe)
     print('[demo] roslaunch harvest_bringup sim.launch scenario:=%s time_scale:=%g%s (log: %s)'
           % (args.scenario, args.time_scale, ''.join(' ' + e for e in extra), args.log))
     sys.stdout.flush()

@@ -18,6 +18,11 @@ bool finite(double v)
 {
   return std::isfinite(v);
 }
+
+double dot3(const vpTranslationVector &a, const vpTranslationVector &b)
+{
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
 }  // namespace
 
 void requireParameter(bool ok, const std::string &what)
@@ -42,6 +47,10 @@ void checkSettings(const ServoSettings &s)
   requireParameter(finite(s.continuous_gain) && s.continuous_gain > 0.0, "~continuous_gain must be > 0 [1/s]");
   requireParameter(finite(s.horizon) && s.horizon > 0.0, "~horizon must be > 0 [s]");
   requireParameter(s.continuous_max_iterations > 0, "~continuous_max_iterations must be > 0");
+  requireParameter(finite(s.depth_probe) && s.depth_probe >= 0.0 && s.depth_probe <= 0.1,
+                   "~depth_probe must be in [0, 0.1] [m]");
+  requireParameter(finite(s.depth_probe_max_shift) && s.depth_probe_max_shift > 0.0,
+                   "~depth_probe_max_shift must be > 0 [m]");
   requireParameter(
       s.adaptive_gain_at_infinity == 0.0 ||
           (s.adaptive_gain_at_infinity > 0.0 && s.adaptive_gain_at_infinity < s.gain && s.adaptive_slope_at_zero > 0.0),
@@ -147,6 +156,66 @@ vpTranslationVector nextToolPoint(const vpRotationMatrix &cam_R_base, const vpTr
                                   const vpTranslationVector &step)
 {
   return tool_base + cam_R_base.t() * step;
+}
+
+ProbeFix triangulateProbe(const vpHomogeneousMatrix &base_M_cam1, double x1, double y1,
+                          const vpHomogeneousMatrix &base_M_cam2, double x2, double y2,
+                          const vpTranslationVector &expected, double max_shift, double max_gap)
+{
+  ProbeFix fix;
+  const vpTranslationVector o1 = base_M_cam1.getTranslationVector();
+  const vpTranslationVector o2 = base_M_cam2.getTranslationVector();
+  vpTranslationVector d1 = base_M_cam1.getRotationMatrix() * vpTranslationVector(x1, y1, 1.0);
+  vpTranslationVector d2 = base_M_cam2.getRotationMatrix() * vpTranslationVector(x2, y2, 1.0);
+  const double n1 = d1.frobeniusNorm();
+  const double n2 = d2.frobeniusNorm();
+  if (!(n1 > 0.0) || !(n2 > 0.0) || !std::isfinite(n1) || !std::isfinite(n2))
+  {
+    fix.why = "no viewing ray (non-finite image point)";
+    return fix;
+  }
+  d1 = d1 / n1;
+  d2 = d2 / n2;
+  // closest points o1 + t1 d1, o2 + t2 d2: solve [1 -b; b -1] (t1, t2) = (d1.w, d2.w), w = o2 - o1
+  const vpTranslationVector w = o2 - o1;
+  const double b = dot3(d1, d2);
+  const double den = 1.0 - b * b;
+  if (den < std::pow(std::sin(0.5 * M_PI / 180.0), 2))
+  {
+    fix.why = "the two viewing rays are nearly parallel (the camera did not move sideways enough)";
+    return fix;
+  }
+  const double e1 = dot3(d1, w);
+  const double e2 = dot3(d2, w);
+  const double t1 = (e1 - b * e2) / den;
+  const double t2 = (b * e1 - e2) / den;
+  if (!(t1 > 0.0) || !(t2 > 0.0))
+  {
+    fix.why = "the ranged point is not in front of both camera poses";
+    return fix;
+  }
+  const vpTranslationVector p1 = o1 + d1 * t1;
+  const vpTranslationVector p2 = o2 + d2 * t2;
+  fix.gap = (p1 - p2).frobeniusNorm();
+  fix.point = (p1 + p2) * 0.5;
+  char text[160];
+  if (!(fix.gap <= max_gap))
+  {
+    std::snprintf(text, sizeof(text), "the viewing rays pass %.1f mm apart (> %.1f mm)", fix.gap * 1e3,
+                  max_gap * 1e3);
+    fix.why = text;
+    return fix;
+  }
+  const double shift = (fix.point - expected).frobeniusNorm();
+  if (!(shift <= max_shift))
+  {
+    std::snprintf(text, sizeof(text), "the ranged centre is %.1f mm from the target (> %.1f mm)", shift * 1e3,
+                  max_shift * 1e3);
+    fix.why = text;
+    return fix;
+  }
+  fix.ok = true;
+  return fix;
 }
 
 ServoVerdict judgeError(double error, double threshold, int moves, int max_iterations)

@@ -84,6 +84,8 @@ VisualServoCycleNode::VisualServoCycleNode(ros::NodeHandle nh, ros::NodeHandle p
   pnh_.param("continuous_gain", s.continuous_gain, s.continuous_gain);
   pnh_.param("horizon", s.horizon, s.horizon);
   pnh_.param("continuous_max_iterations", s.continuous_max_iterations, s.continuous_max_iterations);
+  pnh_.param("depth_probe", s.depth_probe, s.depth_probe);
+  pnh_.param("depth_probe_max_shift", s.depth_probe_max_shift, s.depth_probe_max_shift);
   std::string mode;
   pnh_.param<std::string>("mode", mode, "step");
   requireParameter(parseServoMode(mode, s.mode), "~mode must be 'step' or 'continuous'");
@@ -127,6 +129,7 @@ void VisualServoCycleNode::reconfigure(VisualServoConfig &config, uint32_t /*lev
   s.continuous_gain = config.continuous_gain;
   s.horizon = config.horizon;
   s.continuous_max_iterations = config.continuous_max_iterations;
+  s.depth_probe = config.depth_probe;
   try
   {
     requireParameter(parseServoMode(config.mode, s.mode), "mode must be 'step' or 'continuous'");
@@ -134,9 +137,9 @@ void VisualServoCycleNode::reconfigure(VisualServoConfig &config, uint32_t /*lev
     settings_ = s;
     ROS_INFO_NAMED(LOG, "visual_servo: settings for the next goal: %s mode, gain %.3f, dt %.3f s, threshold %.4f m, "
                         "max_iterations %d, peduncle_gap %.3f m, max_step %.3f m, continuous_gain %.3f, "
-                        "horizon %.3f s, continuous_max_iterations %d",
+                        "horizon %.3f s, continuous_max_iterations %d, depth_probe %.3f m",
                    servoModeName(s.mode), s.gain, s.dt, s.threshold, s.max_iterations, s.peduncle_gap, s.max_step,
-                   s.continuous_gain, s.horizon, s.continuous_max_iterations);
+                   s.continuous_gain, s.horizon, s.continuous_max_iterations, s.depth_probe);
   }
   catch (const std::invalid_argument &e)
   {
@@ -191,6 +194,79 @@ void VisualServoCycleNode::finish(bool success, int iterations, double error, co
   }
 }
 
+VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::VisualServoGoal &goal,
+                                                             const ServoSettings &s, vpTranslationVector &target_base,
+                                                             trajectory_msgs::JointTrajectoryPoint &last_cmd,
+                                                             std::string &why)
+{
+  // two hand camera images, the camera moved ~depth_probe to its side in between; a probe that cannot
+  // range the fruit (not seen, refused) leaves the target as it was: only a failed move ends the goal
+  harvest_msgs::ServoFeature seen[2];
+  vpHomogeneousMatrix base_M_cam[2];
+  for (int k = 0; k < 2; ++k)
+  {
+    Step st = requestFeature(goal.target, seen[k], why);
+    if (st != Step::OK)
+    {
+      ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (image %d: %s)", k + 1,
+                     st == Step::LOST ? "target not seen" : why.c_str());
+      return st == Step::PREEMPTED ? st : Step::OK;
+    }
+    geometry_msgs::TransformStamped base_from_cam, base_from_tool;
+    if (!lookup(base_frame_, camera_frame_, seen[k].header.stamp, base_from_cam, why) ||
+        !lookup(base_frame_, tool_frame_, seen[k].header.stamp, base_from_tool, why))
+    {
+      ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (%s)", why.c_str());
+      return Step::OK;
+    }
+    base_M_cam[k] = toHomogeneous(base_from_cam);
+    if (k == 1)
+    {
+      break;
+    }
+    // sideways: along the camera's x axis (horizontal), the tool rigidly with it
+    geometry_msgs::PointStamped tool_goal;
+    tool_goal.header.frame_id = base_frame_;
+    tool_goal.header.stamp = ros::Time::now();
+    const vpTranslationVector tool_next =
+        nextToolPoint(base_M_cam[0].getRotationMatrix().t(), toHomogeneous(base_from_tool).getTranslationVector(),
+                      vpTranslationVector(s.depth_probe, 0.0, 0.0));
+    tool_goal.point.x = tool_next[0];
+    tool_goal.point.y = tool_next[1];
+    tool_goal.point.z = tool_next[2];
+    trajectory_msgs::JointTrajectoryPoint joints;
+    st = solveIk(tool_goal, joints, why);
+    if (st == Step::PREEMPTED)
+    {
+      return st;
+    }
+    if (st != Step::OK)
+    {
+      ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (no sideways move: %s)", why.c_str());
+      return Step::OK;
+    }
+    st = move(joints, why);
+    if (st != Step::OK)
+    {
+      return st;  // a failed move: the arm is not where it was asked to go
+    }
+    last_cmd = joints;
+  }
+  const ProbeFix fix = triangulateProbe(base_M_cam[0], seen[0].x, seen[0].y, base_M_cam[1], seen[1].x, seen[1].y,
+                                        target_base, s.depth_probe_max_shift);
+  if (!fix.ok)
+  {
+    ROS_WARN_NAMED(LOG, "visual_servo: depth probe refused (%s); the target's depth is kept", fix.why.c_str());
+    return Step::OK;
+  }
+  const vpTranslationVector shift = fix.point - target_base;
+  ROS_INFO_NAMED(LOG, "visual_servo: depth probe: the fruit centre is (%.1f, %.1f, %.1f) mm from the target "
+                      "(rays %.1f mm apart)",
+                 shift[0] * 1e3, shift[1] * 1e3, shift[2] * 1e3, fix.gap * 1e3);
+  target_base = fix.point;
+  return Step::OK;
+}
+
 void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &goal)
 {
   ServoSettings s;
@@ -226,7 +302,7 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
   const vpHomogeneousMatrix T_base_target = toHomogeneous(base_from_target);
   const vpHomogeneousMatrix T_cam_tool = toHomogeneous(cam_from_tool);
   const vpHomogeneousMatrix T_base_tool = toHomogeneous(base_from_tool);
-  const vpTranslationVector target_base =
+  vpTranslationVector target_base =
       T_base_target * vpTranslationVector(goal->target.point.x, goal->target.point.y, goal->target.point.z);
   // Desired pose: the tool centre on the peduncle, target + (0, 0, radius + gap) in the base frame.
   const vpTranslationVector p_star =
@@ -248,6 +324,17 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
   }
   ROS_INFO_NAMED(LOG, "visual_servo: desired feature x* %.4f, y* %.4f, Z* %.3f m", law.desired().x, law.desired().y,
                  law.desired().Z);
+
+  if (s.depth_probe > 0.0)
+  {
+    // the stereo head's depth of the fruit is the loop's depth: range it with the hand camera first
+    const Step st = probeDepth(*goal, s, target_base, last_cmd, why);
+    if (st == Step::FAILED)
+    {
+      finish(false, 0, nan, "depth probe: " + why, last_cmd);
+      return;
+    }
+  }
 
   const bool continuous = s.mode == ServoMode::CONTINUOUS;
   bool move_running = false;  // continuous mode: a move_robot goal was sent and is not waited for

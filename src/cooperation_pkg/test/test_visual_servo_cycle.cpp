@@ -347,6 +347,88 @@ TEST(JointStates, SelectInTheWantedOrder)
   EXPECT_TRUE(selectJointPositions(partial, positions, left).empty());
 }
 
+namespace
+{
+/** A camera at `origin` (base frame) looking along base +x (optical z), its x to base -y, its y down. */
+vpHomogeneousMatrix cameraAt(double ox, double oy, double oz, double yaw = 0.0)
+{
+  vpRotationMatrix look;  // columns: camera x, y, z in the base frame
+  look[0][0] = 0.0, look[0][1] = 0.0, look[0][2] = 1.0;
+  look[1][0] = -1.0, look[1][1] = 0.0, look[1][2] = 0.0;
+  look[2][0] = 0.0, look[2][1] = -1.0, look[2][2] = 0.0;
+  const vpRotationMatrix turn(vpThetaUVector(0.0, 0.0, yaw));
+  return vpHomogeneousMatrix(vpTranslationVector(ox, oy, oz), turn * look);
+}
+
+/** The normalized image point of base point p seen from base_M_cam. */
+void imagePoint(const vpHomogeneousMatrix &base_M_cam, const vpTranslationVector &p, double &x, double &y)
+{
+  const vpTranslationVector c = base_M_cam.inverse() * p;
+  x = c[0] / c[2];
+  y = c[1] / c[2];
+}
+}  // namespace
+
+TEST(DepthProbe, RangesTheFruitFromTwoSidewaysPoses)
+{
+  const vpTranslationVector fruit(0.52, -0.10, 0.86);
+  const vpHomogeneousMatrix cam1 = cameraAt(0.36, -0.09, 0.98, 0.1);
+  const vpHomogeneousMatrix cam2 = cameraAt(0.36, -0.12, 0.98, 0.1);  // 3 cm to the side
+  double x1, y1, x2, y2;
+  imagePoint(cam1, fruit, x1, y1);
+  imagePoint(cam2, fruit, x2, y2);
+  // the stereo head's target 15 mm too far: the probe ranges the true centre
+  const vpTranslationVector stereo = fruit + vpTranslationVector(0.015, 0.0, 0.0);
+  const ProbeFix fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, stereo, 0.05);
+  ASSERT_TRUE(fix.ok) << fix.why;
+  EXPECT_NEAR((fix.point - fruit).frobeniusNorm(), 0.0, 1e-9);
+  EXPECT_NEAR(fix.gap, 0.0, 1e-9);
+  // half a pixel of error (f = 500 px) in the second image moves the depth by a few mm only
+  const ProbeFix noisy = triangulateProbe(cam1, x1, y1, cam2, x2 + 0.5 / 500.0, y2, stereo, 0.05);
+  ASSERT_TRUE(noisy.ok) << noisy.why;
+  EXPECT_LT((noisy.point - fruit).frobeniusNorm(), 0.004);
+}
+
+TEST(DepthProbe, RefusesWhatItCannotRange)
+{
+  const vpTranslationVector fruit(0.52, -0.10, 0.86);
+  const vpHomogeneousMatrix cam1 = cameraAt(0.36, -0.09, 0.98);
+  double x1, y1, x2, y2;
+  imagePoint(cam1, fruit, x1, y1);
+  // no sideways move: parallel rays
+  ProbeFix fix = triangulateProbe(cam1, x1, y1, cam1, x1, y1, fruit, 0.05);
+  EXPECT_FALSE(fix.ok);
+  EXPECT_NE(fix.why.find("parallel"), std::string::npos) << fix.why;
+  // the centre far from the stereo target (another fruit taken for it)
+  const vpHomogeneousMatrix cam2 = cameraAt(0.36, -0.12, 0.98);
+  imagePoint(cam2, fruit, x2, y2);
+  fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, fruit + vpTranslationVector(0.0, 0.08, 0.0), 0.05);
+  EXPECT_FALSE(fix.ok);
+  EXPECT_NE(fix.why.find("from the target"), std::string::npos) << fix.why;
+  // rays that miss each other by a centimetre (the feature jumped between the images)
+  fix = triangulateProbe(cam1, x1, y1 + 0.06, cam2, x2, y2, fruit, 0.05);
+  EXPECT_FALSE(fix.ok);
+  EXPECT_NE(fix.why.find("apart"), std::string::npos) << fix.why;
+  // crossing behind the cameras
+  fix = triangulateProbe(cam1, -x1 - 0.4, y1, cam2, x2, y2, fruit, 0.05);
+  EXPECT_FALSE(fix.ok);
+  // a non-finite image point
+  fix = triangulateProbe(cam1, NaN, y1, cam2, x2, y2, fruit, 0.05);
+  EXPECT_FALSE(fix.ok);
+}
+
+TEST(DepthProbe, SettingsAreChecked)
+{
+  ServoSettings s;
+  EXPECT_EQ(settingsError(s), "");
+  s.depth_probe = -0.01;
+  EXPECT_NE(settingsError(s).find("depth_probe"), std::string::npos);
+  s.depth_probe = 0.03;
+  EXPECT_EQ(settingsError(s), "");
+  s.depth_probe_max_shift = 0.0;
+  EXPECT_NE(settingsError(s).find("depth_probe_max_shift"), std::string::npos);
+}
+
 int main(int argc, char **argv)
 {
   testing::InitGoogleTest(&argc, argv);

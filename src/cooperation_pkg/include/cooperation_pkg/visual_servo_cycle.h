@@ -38,6 +38,8 @@ struct ServoSettings
   double continuous_gain = 3.5;       ///< lambda in continuous mode [1/s]
   double horizon = 0.2;               ///< continuous mode: the velocity is held this long per command [s]
   int continuous_max_iterations = 150;  ///< continuous mode: commands before giving up
+  double depth_probe = 0.0;           ///< > 0: sideways camera move [m] to range the fruit first (0 = off)
+  double depth_probe_max_shift = 0.05;  ///< the probe's fruit centre farther than this from the target is refused [m]
 };
 
 /** Throws std::invalid_argument("invalid parameter: " + what) when !ok. */
@@ -98,6 +100,26 @@ bool currentFeature(double x, double y, const vpTranslationVector &target_cam, P
  */
 vpTranslationVector nextToolPoint(const vpRotationMatrix &cam_R_base, const vpTranslationVector &tool_base,
                                   const vpTranslationVector &step);
+
+/** The fruit centre ranged by the hand camera from two poses (depth probe), or why not. */
+struct ProbeFix
+{
+  bool ok = false;
+  vpTranslationVector point;  ///< base frame [m]
+  double gap = 0.0;           ///< distance between the two viewing rays at their closest [m]
+  std::string why;            ///< when !ok
+};
+
+/**
+ * Motion stereo of the eye-in-hand camera: the fruit centre seen at the normalized image points (x1, y1) and
+ * (x2, y2) from two camera poses base_M_cam1, base_M_cam2 (the camera moved sideways between the two images).
+ * The point is the middle of the two viewing rays' closest points. Not ok (with why) when the rays are nearly
+ * parallel (less than 0.5 degree apart), the point is not in front of both cameras, the rays pass farther than
+ * max_gap apart, or the point lies farther than max_shift from `expected` (the stereo head's target).
+ */
+ProbeFix triangulateProbe(const vpHomogeneousMatrix &base_M_cam1, double x1, double y1,
+                          const vpHomogeneousMatrix &base_M_cam2, double x2, double y2,
+                          const vpTranslationVector &expected, double max_shift, double max_gap = 0.005);
 
 /** The stop criterion of one image. */
 enum class ServoVerdict

@@ -65,6 +65,10 @@ private:
   bool makeSettings(const harvest_msgs::VisualServoGoal &goal, ServoSettings &s, double &radius,
                     std::string &why) const;
   bool waitForServers(std::string &why);
+  /** depth_probe: ranges the fruit centre with the hand camera from two poses ~depth_probe apart sideways and
+   *  puts it in target_base (kept when the probe cannot range it); FAILED only when the sideways move failed. */
+  Step probeDepth(const harvest_msgs::VisualServoGoal &goal, const ServoSettings &s, vpTranslationVector &target_base,
+                  trajectory_msgs::JointTrajectoryPoint &last_cmd, std::string &why);
   Step requestFeature(const geometry_msgs::PointStamped &target, harvest_msgs::ServoFeature &feature,
                       std::string &why);
   Step solveIk(const geometry_msgs::PointStamped &tool_point, trajectory_msgs::JointTrajectoryPoint &joints,
