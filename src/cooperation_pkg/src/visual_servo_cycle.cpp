@@ -51,6 +51,8 @@ void checkSettings(const ServoSettings &s)
                    "~depth_probe must be in [0, 0.1] [m]");
   requireParameter(finite(s.depth_probe_max_shift) && s.depth_probe_max_shift > 0.0,
                    "~depth_probe_max_shift must be > 0 [m]");
+  requireParameter(finite(s.depth_probe_max_side) && s.depth_probe_max_side > 0.0,
+                   "~depth_probe_max_side must be > 0 [m]");
   requireParameter(
       s.adaptive_gain_at_infinity == 0.0 ||
           (s.adaptive_gain_at_infinity > 0.0 && s.adaptive_gain_at_infinity < s.gain && s.adaptive_slope_at_zero > 0.0),
@@ -160,7 +162,7 @@ vpTranslationVector nextToolPoint(const vpRotationMatrix &cam_R_base, const vpTr
 
 ProbeFix triangulateProbe(const vpHomogeneousMatrix &base_M_cam1, double x1, double y1,
                           const vpHomogeneousMatrix &base_M_cam2, double x2, double y2,
-                          const vpTranslationVector &expected, double max_shift, double max_gap)
+                          const vpTranslationVector &expected, double max_shift, double max_side, double max_gap)
 {
   ProbeFix fix;
   const vpTranslationVector o1 = base_M_cam1.getTranslationVector();
@@ -206,11 +208,22 @@ ProbeFix triangulateProbe(const vpHomogeneousMatrix &base_M_cam1, double x1, dou
     fix.why = text;
     return fix;
   }
-  const double shift = (fix.point - expected).frobeniusNorm();
+  const vpTranslationVector offset = fix.point - expected;
+  const double shift = offset.frobeniusNorm();
   if (!(shift <= max_shift))
   {
     std::snprintf(text, sizeof(text), "the ranged centre is %.1f mm from the target (> %.1f mm)", shift * 1e3,
                   max_shift * 1e3);
+    fix.why = text;
+    return fix;
+  }
+  vpTranslationVector axis = base_M_cam1.getRotationMatrix() * vpTranslationVector(0.0, 0.0, 1.0);
+  const double along = dot3(offset, axis);
+  const double side = std::sqrt(std::max(shift * shift - along * along, 0.0));
+  if (!(side <= max_side))
+  {
+    std::snprintf(text, sizeof(text), "the ranged centre is %.1f mm to the side of the target (> %.1f mm): another "
+                  "fruit?", side * 1e3, max_side * 1e3);
     fix.why = text;
     return fix;
   }

@@ -86,6 +86,7 @@ VisualServoCycleNode::VisualServoCycleNode(ros::NodeHandle nh, ros::NodeHandle p
   pnh_.param("continuous_max_iterations", s.continuous_max_iterations, s.continuous_max_iterations);
   pnh_.param("depth_probe", s.depth_probe, s.depth_probe);
   pnh_.param("depth_probe_max_shift", s.depth_probe_max_shift, s.depth_probe_max_shift);
+  pnh_.param("depth_probe_max_side", s.depth_probe_max_side, s.depth_probe_max_side);
   std::string mode;
   pnh_.param<std::string>("mode", mode, "step");
   requireParameter(parseServoMode(mode, s.mode), "~mode must be 'step' or 'continuous'");
@@ -253,7 +254,7 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
     last_cmd = joints;
   }
   const ProbeFix fix = triangulateProbe(base_M_cam[0], seen[0].x, seen[0].y, base_M_cam[1], seen[1].x, seen[1].y,
-                                        target_base, s.depth_probe_max_shift);
+                                        target_base, s.depth_probe_max_shift, s.depth_probe_max_side);
   if (!fix.ok)
   {
     ROS_WARN_NAMED(LOG, "visual_servo: depth probe refused (%s); the target's depth is kept", fix.why.c_str());

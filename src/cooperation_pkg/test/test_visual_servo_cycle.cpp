@@ -379,12 +379,12 @@ TEST(DepthProbe, RangesTheFruitFromTwoSidewaysPoses)
   imagePoint(cam2, fruit, x2, y2);
   // the stereo head's target 15 mm too far: the probe ranges the true centre
   const vpTranslationVector stereo = fruit + vpTranslationVector(0.015, 0.0, 0.0);
-  const ProbeFix fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, stereo, 0.05);
+  const ProbeFix fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, stereo, 0.05, 0.01);
   ASSERT_TRUE(fix.ok) << fix.why;
   EXPECT_NEAR((fix.point - fruit).frobeniusNorm(), 0.0, 1e-9);
   EXPECT_NEAR(fix.gap, 0.0, 1e-9);
   // half a pixel of error (f = 500 px) in the second image moves the depth by a few mm only
-  const ProbeFix noisy = triangulateProbe(cam1, x1, y1, cam2, x2 + 0.5 / 500.0, y2, stereo, 0.05);
+  const ProbeFix noisy = triangulateProbe(cam1, x1, y1, cam2, x2 + 0.5 / 500.0, y2, stereo, 0.05, 0.01);
   ASSERT_TRUE(noisy.ok) << noisy.why;
   EXPECT_LT((noisy.point - fruit).frobeniusNorm(), 0.004);
 }
@@ -396,24 +396,30 @@ TEST(DepthProbe, RefusesWhatItCannotRange)
   double x1, y1, x2, y2;
   imagePoint(cam1, fruit, x1, y1);
   // no sideways move: parallel rays
-  ProbeFix fix = triangulateProbe(cam1, x1, y1, cam1, x1, y1, fruit, 0.05);
+  ProbeFix fix = triangulateProbe(cam1, x1, y1, cam1, x1, y1, fruit, 0.05, 0.01);
   EXPECT_FALSE(fix.ok);
   EXPECT_NE(fix.why.find("parallel"), std::string::npos) << fix.why;
   // the centre far from the stereo target (another fruit taken for it)
   const vpHomogeneousMatrix cam2 = cameraAt(0.36, -0.12, 0.98);
   imagePoint(cam2, fruit, x2, y2);
-  fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, fruit + vpTranslationVector(0.0, 0.08, 0.0), 0.05);
+  fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, fruit + vpTranslationVector(0.0, 0.08, 0.0), 0.05, 0.01);
   EXPECT_FALSE(fix.ok);
   EXPECT_NE(fix.why.find("from the target"), std::string::npos) << fix.why;
+  // a neighbour 25 mm to the side (a cherry truss): refused; 25 mm further along the view: taken
+  fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, fruit + vpTranslationVector(0.0, 0.025, 0.0), 0.05, 0.01);
+  EXPECT_FALSE(fix.ok);
+  EXPECT_NE(fix.why.find("to the side"), std::string::npos) << fix.why;
+  fix = triangulateProbe(cam1, x1, y1, cam2, x2, y2, fruit + vpTranslationVector(0.025, 0.0, 0.0), 0.05, 0.01);
+  EXPECT_TRUE(fix.ok) << fix.why;
   // rays that miss each other by a centimetre (the feature jumped between the images)
-  fix = triangulateProbe(cam1, x1, y1 + 0.06, cam2, x2, y2, fruit, 0.05);
+  fix = triangulateProbe(cam1, x1, y1 + 0.06, cam2, x2, y2, fruit, 0.05, 0.01);
   EXPECT_FALSE(fix.ok);
   EXPECT_NE(fix.why.find("apart"), std::string::npos) << fix.why;
   // crossing behind the cameras
-  fix = triangulateProbe(cam1, -x1 - 0.4, y1, cam2, x2, y2, fruit, 0.05);
+  fix = triangulateProbe(cam1, -x1 - 0.4, y1, cam2, x2, y2, fruit, 0.05, 0.01);
   EXPECT_FALSE(fix.ok);
   // a non-finite image point
-  fix = triangulateProbe(cam1, NaN, y1, cam2, x2, y2, fruit, 0.05);
+  fix = triangulateProbe(cam1, NaN, y1, cam2, x2, y2, fruit, 0.05, 0.01);
   EXPECT_FALSE(fix.ok);
 }
 
@@ -427,6 +433,9 @@ TEST(DepthProbe, SettingsAreChecked)
   EXPECT_EQ(settingsError(s), "");
   s.depth_probe_max_shift = 0.0;
   EXPECT_NE(settingsError(s).find("depth_probe_max_shift"), std::string::npos);
+  s.depth_probe_max_shift = 0.05;
+  s.depth_probe_max_side = NaN;
+  EXPECT_NE(settingsError(s).find("depth_probe_max_side"), std::string::npos);
 }
 
 int main(int argc, char **argv)

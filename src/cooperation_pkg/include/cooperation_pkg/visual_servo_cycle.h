@@ -40,6 +40,7 @@ struct ServoSettings
   int continuous_max_iterations = 150;  ///< continuous mode: commands before giving up
   double depth_probe = 0.0;           ///< > 0: sideways camera move [m] to range the fruit first (0 = off)
   double depth_probe_max_shift = 0.05;  ///< the probe's fruit centre farther than this from the target is refused [m]
+  double depth_probe_max_side = 0.01;   ///< ... or farther than this to the side, across the camera's view [m]
 };
 
 /** Throws std::invalid_argument("invalid parameter: " + what) when !ok. */
@@ -115,11 +116,15 @@ struct ProbeFix
  * (x2, y2) from two camera poses base_M_cam1, base_M_cam2 (the camera moved sideways between the two images).
  * The point is the middle of the two viewing rays' closest points. Not ok (with why) when the rays are nearly
  * parallel (less than 0.5 degree apart), the point is not in front of both cameras, the rays pass farther than
- * max_gap apart, or the point lies farther than max_shift from `expected` (the stereo head's target).
+ * max_gap apart, or the point lies farther than max_shift from `expected` (the stereo head's target) or farther
+ * than max_side from it across the first camera's view (perpendicular to its optical axis): the stereo head's
+ * error is its depth, and both cameras look at the plant, so a centre far to the side is another fruit the hand
+ * camera took for the target (a cherry truss).
  */
 ProbeFix triangulateProbe(const vpHomogeneousMatrix &base_M_cam1, double x1, double y1,
                           const vpHomogeneousMatrix &base_M_cam2, double x2, double y2,
-                          const vpTranslationVector &expected, double max_shift, double max_gap = 0.005);
+                          const vpTranslationVector &expected, double max_shift, double max_side,
+                          double max_gap = 0.005);
 
 /** The stop criterion of one image. */
 enum class ServoVerdict
