@@ -195,6 +195,17 @@ void VisualServoCycleNode::finish(bool success, int iterations, double error, co
   }
 }
 
+geometry_msgs::PointStamped VisualServoCycleNode::toolGoal(const vpTranslationVector &tool_base) const
+{
+  geometry_msgs::PointStamped goal;
+  goal.header.frame_id = base_frame_;
+  goal.header.stamp = ros::Time::now();
+  goal.point.x = tool_base[0];
+  goal.point.y = tool_base[1];
+  goal.point.z = tool_base[2];
+  return goal;
+}
+
 VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::VisualServoGoal &goal,
                                                              const ServoSettings &s, vpTranslationVector &target_base,
                                                              trajectory_msgs::JointTrajectoryPoint &last_cmd,
@@ -226,15 +237,9 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
       break;
     }
     // sideways: along the camera's x axis (horizontal), the tool rigidly with it
-    geometry_msgs::PointStamped tool_goal;
-    tool_goal.header.frame_id = base_frame_;
-    tool_goal.header.stamp = ros::Time::now();
-    const vpTranslationVector tool_next =
+    const geometry_msgs::PointStamped tool_goal = toolGoal(
         nextToolPoint(base_M_cam[0].getRotationMatrix().t(), toHomogeneous(base_from_tool).getTranslationVector(),
-                      vpTranslationVector(s.depth_probe, 0.0, 0.0));
-    tool_goal.point.x = tool_next[0];
-    tool_goal.point.y = tool_next[1];
-    tool_goal.point.z = tool_next[2];
+                      vpTranslationVector(s.depth_probe, 0.0, 0.0)));
     trajectory_msgs::JointTrajectoryPoint joints;
     st = solveIk(tool_goal, joints, why);
     if (st == Step::PREEMPTED)
@@ -473,14 +478,8 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
                     error * 1e3, v[0], v[1], v[2], v[3], v[4], v[5]);
 
     // 5. the tool is rigidly attached to the camera: it translates by the same vector (base frame)
-    geometry_msgs::PointStamped tool_goal;
-    tool_goal.header.frame_id = base_frame_;
-    tool_goal.header.stamp = ros::Time::now();
-    const vpTranslationVector tool_next =
-        nextToolPoint(T_cam_base.getRotationMatrix(), T_base_tool_now.getTranslationVector(), step);
-    tool_goal.point.x = tool_next[0];
-    tool_goal.point.y = tool_next[1];
-    tool_goal.point.z = tool_next[2];
+    const geometry_msgs::PointStamped tool_goal =
+        toolGoal(nextToolPoint(T_cam_base.getRotationMatrix(), T_base_tool_now.getTranslationVector(), step));
 
     // 6. joint goal of the left arm, then move and wait (step) or send it and look again (continuous)
     trajectory_msgs::JointTrajectoryPoint joints;

@@ -65,6 +65,8 @@ private:
   bool makeSettings(const harvest_msgs::VisualServoGoal &goal, ServoSettings &s, double &radius,
                     std::string &why) const;
   bool waitForServers(std::string &why);
+  /** The tool point (base frame) as a kinematics target, stamped now. */
+  geometry_msgs::PointStamped toolGoal(const vpTranslationVector &tool_base) const;
   /** depth_probe: ranges the fruit centre with the hand camera from two poses ~depth_probe apart sideways and
    *  puts it in target_base (kept when the probe cannot range it); FAILED only when the sideways move failed. */
   Step probeDepth(const harvest_msgs::VisualServoGoal &goal, const ServoSettings &s, vpTranslationVector &target_base,
