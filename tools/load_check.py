@@ -72,6 +72,8 @@ def main():
                         help="sim.launch's time_scale (default: run_demo's)")
     parser.add_argument('--timeout', type=float, default=600.0, help='wall seconds per mission')
     parser.add_argument('--logs', default='load_check_logs', help='directory of the launch logs')
+    parser.add_argument('--depth-probe', type=float, default=None, metavar='M',
+                        help="run_demo's --depth-probe (default: the visual servo's own, off)")
     args = parser.parse_args()
     args.logs = os.path.abspath(args.logs)
     names = args.scenario or sorted(os.path.splitext(os.path.basename(p))[0]
@@ -92,6 +94,8 @@ def main():
                    '--log', os.path.join(args.logs, 'load_check_%s.log' % name)]
             if args.time_scale is not None:
                 cmd += ['--time-scale', str(args.time_scale)]
+            if args.depth_probe is not None:
+                cmd += ['--depth-probe', str(args.depth_probe)]
             t0 = time.time()
             out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                                  universal_newlines=True, cwd=args.logs)
