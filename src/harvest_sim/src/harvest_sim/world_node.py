@@ -180,14 +180,16 @@ class SimWorldNode(object):
             due = (w.state_version != self._published_state or force or
                    (moved and (now - self._last_pub >= self._motion_period or
                                now < self._last_pub)))
-            send_sealed = sealed != self._sealed
             msg = fruit_array(w, now) if due else None
             if due:
                 self._published_version, self._published_state = w.version, w.state_version
                 self._last_pub = now
-            self._sealed = sealed
-        if send_sealed:
-            self.sealed_pub.publish(Bool(data=sealed))
+            if sealed != self._sealed:
+                # published under the lock: several threads publish (joint states, the valve,
+                # the timer), and a seal sent after the release that followed it would leave
+                # the controller reading vacuum on an empty cup
+                self._sealed = sealed
+                self.sealed_pub.publish(Bool(data=sealed))
         if msg is not None:
             self.fruits_pub.publish(msg)
 
