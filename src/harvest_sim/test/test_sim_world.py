@@ -194,3 +194,42 @@ def test_a_valve_opened_with_the_arm_already_there_seals_at_once():
     assert world.set_valve(True, stamp=10.4) and world.sealed and world.held.id == 'f0'
     world.set_valve(False)
     assert world.seal_after is None
+
+
+def test_a_valve_closed_before_the_tearing_pull_lets_the_fruit_go_on_its_pedicel():
+    # a restarted task planner releases the fruit it was pulling, then takes the arm home: the
+    # home move's joint states overtook the valve's closing (stamped before them)
+    world = make_world(tear_distance=0.05)
+    f0 = world.fruits[0]
+    at_fruit, _ = suction_at(F0)
+    world.set_joints(at_fruit, stamp=10.0)
+    world.set_valve(True, stamp=10.0)
+    assert world.held is f0
+    pulled, _ = suction_at(F0 + [-0.03, 0, 0])
+    world.set_joints(pulled, stamp=11.0)
+    home, _ = suction_at(F0 + [-0.08, 0, 0])
+    world.set_joints(home, stamp=12.1)
+    assert f0.state == w.DAMAGED and not f0.attached     # as far as the world knows yet
+    events = world.set_valve(False, stamp=12.0)
+    assert f0.state == w.HANGING and f0.attached and np.allclose(f0.position, F0), events
+    assert 'not torn' in events[0] and world.summary()['damaged'] == 0
+    # sealed again and pulled too far with the valve open: torn for good
+    world.set_joints(at_fruit, stamp=13.0)
+    world.set_valve(True, stamp=13.0)
+    world.set_joints(home, stamp=14.0)
+    world.set_valve(False, stamp=14.5)
+    assert f0.state == w.DAMAGED and not f0.attached and f0.position[2] == pytest.approx(R)
+
+
+def test_a_closing_stamped_before_a_tear_keeps_a_fruit_damaged_by_the_shear_damaged():
+    world = make_world(tear_distance=0.05)
+    f0 = world.fruits[0]
+    at_fruit, _ = suction_at(F0)
+    world.set_joints(at_fruit, stamp=10.0)
+    f0.state = w.DAMAGED                                  # shear closed inside it before
+    world.set_valve(True, stamp=10.0)
+    assert world.held is f0
+    home, _ = suction_at(F0 + [-0.08, 0, 0])
+    world.set_joints(home, stamp=11.0)
+    world.set_valve(False, stamp=10.5)
+    assert f0.state == w.DAMAGED and f0.attached and np.allclose(f0.position, F0)

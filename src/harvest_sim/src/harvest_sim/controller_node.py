@@ -7,7 +7,8 @@ Publications (relative; the node runs in namespace ``sim``):
   joint_states (sensor_msgs/JointState)  URDF joint names, every ``~publish_rate`` (ROS time),
                                          plus, before each shear_cut, one stamped when the
                                          closure was first noticed (the arm where it cut)
-  suction_valve (std_msgs/Bool, latched) valve state on every change
+  suction_valve (harvest_sim/SuctionValve, latched) valve state on every change,
+                                         stamped when it changed
   shear_cut (std_msgs/Header)            one per shear closure, stamp = closing time
   activity (harvest_sim/SimActivity)     for sim_clock: ACTION on every Modbus write, BUSY with
                                          the time until which something is under way (axes,
@@ -47,7 +48,7 @@ from harvest_sim import controller_map as cm
 from harvest_sim import names
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config
 from harvest_sim.controller_server import ControllerServer, apply_faults, parse_fault_spec
-from harvest_sim.msg import SimActivity
+from harvest_sim.msg import SimActivity, SuctionValve
 from harvest_sim.srv import FaultWindow, FaultWindowResponse
 
 
@@ -94,9 +95,9 @@ class SimControllerNode(object):
         self.joint_pub = rospy.Publisher('joint_states', JointState, queue_size=10)
         self.halt_pub = rospy.Publisher('~halt_received', TimeReference, queue_size=20,
                                         tcp_nodelay=True)
-        self.valve_pub = rospy.Publisher('suction_valve', Bool, queue_size=10, latch=True)
+        self.valve_pub = rospy.Publisher('suction_valve', SuctionValve, queue_size=10, latch=True)
         self.cut_pub = rospy.Publisher('shear_cut', Header, queue_size=10)
-        self.valve_pub.publish(Bool(data=False))
+        self.valve_pub.publish(SuctionValve(header=Header(stamp=rospy.Time.now()), open=False))
         rospy.Subscriber('suction_sealed', Bool, self._on_sealed, queue_size=10)
         try:
             self.server.start()
@@ -208,7 +209,8 @@ class SimControllerNode(object):
         self._end_outage(t)
         for event in self.model.pop_events(t):
             if event[0] == 'valve':
-                self.valve_pub.publish(Bool(data=event[2]))
+                self.valve_pub.publish(SuctionValve(
+                    header=Header(stamp=rospy.Time.from_sec(event[1])), open=event[2]))
             elif event[0] == 'shear_cut':
                 pose = self.model.pop_closure_pose()
                 if pose is not None and pose[0] < t:

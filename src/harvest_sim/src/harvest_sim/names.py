@@ -6,7 +6,7 @@ the names a real camera driver would use.
 
 #: world node (run in namespace `sim`)
 JOINT_STATES = 'joint_states'          # sensor_msgs/JointState from the simulated controller
-SUCTION_VALVE = 'suction_valve'        # std_msgs/Bool, latched, from the simulated controller
+SUCTION_VALVE = 'suction_valve'        # harvest_sim/SuctionValve (stamped), latched, from the simulated controller
 SHEAR_CUT = 'shear_cut'                # std_msgs/Header at each shear close
 SUCTION_SEALED = 'suction_sealed'      # std_msgs/Bool, latched, world -> controller
 FRUITS = 'fruits'                      # harvest_sim/SimFruitArray, latched

@@ -35,6 +35,12 @@ last joint states of the move. A valve opened with a stamp (world_node: the ROS 
 therefore seals only with a joint state stamped at or after it: on a busy machine the cup had
 sealed on a neighbour the approach had swept past (the latest joint state was from mid-move),
 and the pull then tore that fruit off.
+
+Its closing has the mirror race: the valve closed (a release) and the next move commanded at
+once, the move's joint states can reach the world before the closing. The controller stamps the
+valve's changes (set_valve's `stamp`), so a closing stamped before the joint state that tore the
+held fruit off undoes that tear: the fruit was let go still on its pedicel and springs back onto
+the plant (a restarted task planner releases the fruit it was pulling and takes the arms home).
 """
 
 import collections
@@ -102,6 +108,9 @@ class World(object):
         self.held = None                          # FruitTruth held by suction
         self.vacuum_lost = False                  # lose_vacuum: no seal until the valve closes
         self.hold_offset = None                   # fruit centre in the suction tcp frame
+        #: (joint stamp, state before) of the held fruit's tear off its pedicel: a valve closing
+        #: stamped before it (come late) undoes the tear
+        self.torn = None
         self.seal_events = 0
         self.cut_events = 0
         self.version = 0                          # bumped on every change of fruit state/pose
@@ -138,6 +147,7 @@ class World(object):
                 self.version += 1
             if self.held.attached and np.linalg.norm(
                     self.held.position - self.held.fruit.position) > self.tear_distance:
+                self.torn = (self.joint_stamp, self.held.state)
                 self.held.attached = False
                 self.held.cut_point = None
                 self.held.state = DAMAGED
@@ -155,8 +165,10 @@ class World(object):
                                            self.joint_stamp >= self.seal_after)
 
     def set_valve(self, is_open, stamp=None):
-        """Suction valve opened (True) or closed (False); `stamp` (s): when it opened. With a
-        stamp the cup seals only once a joint state stamped at or after it is here."""
+        """Suction valve opened (True) or closed (False); `stamp` (s): when it changed. Opened
+        with a stamp, the cup seals only once a joint state stamped at or after it is here;
+        closed with a stamp before the joint state that tore the held fruit off its pedicel, the
+        fruit is let go as it was before that pull (back on the plant)."""
         is_open = bool(is_open)
         if is_open == self.valve_open:
             return []
@@ -166,7 +178,7 @@ class World(object):
             return [] if self.vacuum_lost or not self._pose_after_valve() else self._try_seal()
         self.seal_after = None
         self.vacuum_lost = False
-        return self._release()
+        return self._release(stamp)
 
     def lose_vacuum(self):
         """The vacuum_loss fault: the held fruit drops off the suction sleeve (off the plant:
@@ -176,7 +188,7 @@ class World(object):
         self.vacuum_lost = self.valve_open
         if f is None:
             return ['vacuum lost: the suction held nothing']
-        self.held, self.hold_offset = None, None
+        self.held, self.hold_offset, self.torn = None, None, None
         self.version += 1
         self.state_version += 1
         if f.attached:
@@ -301,7 +313,7 @@ class World(object):
                 best, best_d = f, d
         if best is None or best_d > self.seal_tolerance:
             return []
-        self.held = best
+        self.held, self.torn = best, None
         self.hold_offset = self.poses[SUCTION_TCP][:3, :3].T.dot(best.position - tcp)
         if best.state == HANGING:
             best.state = HELD
@@ -310,13 +322,23 @@ class World(object):
         self.state_version += 1
         return ['%s sealed by suction (%.1f mm from its surface)' % (best.id, best_d * 1000)]
 
-    def _release(self):
+    def _release(self, stamp=None):
         f = self.held
         if f is None:
             return []
+        torn, self.torn = self.torn, None
         self.held, self.hold_offset = None, None
         self.version += 1
         self.state_version += 1
+        if (torn is not None and stamp is not None and torn[0] is not None and
+                float(stamp) < torn[0] and not f.attached and f.cut_point is None):
+            # the closing came after the joint state that tore the fruit off, stamped before it
+            f.attached, f.state = True, torn[1]
+            f.position = f.fruit.position.copy()
+            if f.state == HELD:
+                f.state = HANGING
+            return ['%s released uncut before the pull that tore it off (valve closed at %.3f s, '
+                    'tear at %.3f s): back on the plant, not torn' % (f.id, float(stamp), torn[0])]
         if f.state == HARVESTED:
             f.state = COLLECTED
             return ['%s collected (released at %s)' % (f.id, np.round(f.position, 3).tolist())]

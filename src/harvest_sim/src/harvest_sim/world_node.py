@@ -4,7 +4,8 @@ Owns the ground truth (harvest_sim.world.World) of the scenario and publishes it
 
 Subscriptions (relative; the node runs in namespace ``sim``):
   joint_states (sensor_msgs/JointState)  ground-truth joints from the simulated controller
-  suction_valve (std_msgs/Bool)          suction valve open/closed
+  suction_valve (harvest_sim/SuctionValve) suction valve open/closed, stamped when it changed
+                                         (unstamped: when it arrives)
   shear_cut (std_msgs/Header)            one per shear close (judged once a joint state
                                          stamped at or after it has come, or after 0.5 s:
                                          World.shear_cut)
@@ -43,7 +44,7 @@ from std_srvs.srv import Trigger, TriggerResponse
 from harvest_sim import names
 from harvest_sim import scenario as scn
 from harvest_sim.frame_timing import ALL_CAMERAS, CAMERA_NAMES
-from harvest_sim.msg import CameraSilence, SimFruit, SimFruitArray
+from harvest_sim.msg import CameraSilence, SimFruit, SimFruitArray, SuctionValve
 from harvest_sim.srv import (GetSimSummary, GetSimSummaryResponse, SilenceCamera,
                              SilenceCameraResponse)
 from harvest_sim.world import World
@@ -135,7 +136,7 @@ class SimWorldNode(object):
         rospy.Service('~vacuum_loss', Trigger, self._on_vacuum_loss)
         rospy.Service('~camera_silence', SilenceCamera, self._on_camera_silence)
         rospy.Subscriber(names.JOINT_STATES, JointState, self._on_joints, queue_size=5)
-        rospy.Subscriber(names.SUCTION_VALVE, Bool, self._on_valve, queue_size=5)
+        rospy.Subscriber(names.SUCTION_VALVE, SuctionValve, self._on_valve, queue_size=5)
         rospy.Subscriber(names.SHEAR_CUT, Header, self._on_cut, queue_size=5)
         rate = float(rospy.get_param('~publish_rate', 10.0))
         self._timer = rospy.Timer(rospy.Duration(1.0 / rate), self._on_timer)
@@ -155,9 +156,13 @@ class SimWorldNode(object):
         self._publish()
 
     def _on_valve(self, msg):
+        # the controller's stamp (when the valve changed) orders it among the joint states:
+        # only those stamped since an opening can seal the cup, and a closing stamped before
+        # the joint state that tore the held fruit off lets it go still on its pedicel;
+        # unstamped, it counts from its arrival
+        stamp = msg.header.stamp.to_sec() if not msg.header.stamp.is_zero() else rospy.get_time()
         with self._lock:
-            # stamped with its arrival: only joint states stamped since then can seal the cup
-            self._log(self.world.set_valve(msg.data, rospy.get_time()))
+            self._log(self.world.set_valve(msg.open, stamp))
         self._publish()
 
     def _on_cut(self, msg):
