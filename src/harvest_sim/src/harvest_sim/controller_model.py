@@ -93,6 +93,12 @@ class ControllerModel(object):
                 self.valve_open = flag
                 self._valve_since = t
                 self._events.append(('valve', t, flag))
+                if not flag and self.sealed:
+                    # closing lets go of whatever the cup held (the world releases it and
+                    # reports its seal anew under the next opening): a seal still counted when
+                    # the world's release is late would read vacuum on an empty cup
+                    self.sealed = False
+                    self._sealed_since = t
 
     def start_shear(self, t):
         with self._lock:
