@@ -37,14 +37,15 @@ bool VisualServoCycleNode::lookup(const std::string &target, const std::string &
   std::string err;
   if (!stamp.isZero())
   {
+    // at that time or not at all: the latest transform may be from before the last move (tf
+    // late on a busy machine), and an image paired with another time's pose misleads the law
     if (tf_buffer_.canTransform(target, source, stamp, ros::Duration(tf_timeout_), &err))
     {
       out = tf_buffer_.lookupTransform(target, source, stamp);
       return true;
     }
-    ROS_WARN_THROTTLE_NAMED(5.0, VISUAL_SERVO_LOG,
-                            "visual_servo: no transform %s <- %s at the image time (%s); using the latest",
-                            target.c_str(), source.c_str(), err.c_str());
+    why = "no transform " + target + " <- " + source + " at the image time: " + err;
+    return false;
   }
   if (!tf_buffer_.canTransform(target, source, ros::Time(0), ros::Duration(tf_timeout_), &err))
   {

@@ -379,6 +379,17 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
       fail("image processing failed: " + why);
       return;
     }
+    // 2. the hand camera's pose at the image time (the depth of the target in it)
+    geometry_msgs::TransformStamped cam_from_base_msg, base_from_tool_msg;
+    if (st == Step::OK &&
+        (!lookup(camera_frame_, base_frame_, feature.header.stamp, cam_from_base_msg, why) ||
+         !lookup(base_frame_, tool_frame_, feature.header.stamp, base_from_tool_msg, why)))
+    {
+      // tf has no pose at the image time yet (a busy machine): this image counts as one without
+      // the target and the next one is taken; a pose of another time would be wrong (one from
+      // before the approach move put the target behind the camera)
+      st = Step::LOST;
+    }
     if (st == Step::LOST)
     {
       const bool give_up = lost.miss();
@@ -397,14 +408,6 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
       ROS_INFO_NAMED(LOG, "visual_servo: target found again after %d misses", misses);
     }
 
-    // 2. depth of the target in the hand camera and the camera pose at the image time
-    geometry_msgs::TransformStamped cam_from_base_msg, base_from_tool_msg;
-    if (!lookup(camera_frame_, base_frame_, feature.header.stamp, cam_from_base_msg, why) ||
-        !lookup(base_frame_, tool_frame_, feature.header.stamp, base_from_tool_msg, why))
-    {
-      fail(why);
-      return;
-    }
     const vpHomogeneousMatrix T_cam_base = toHomogeneous(cam_from_base_msg);
     const vpHomogeneousMatrix T_base_tool_now = toHomogeneous(base_from_tool_msg);
     PointFeature current;
