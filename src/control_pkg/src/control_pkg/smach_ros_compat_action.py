@@ -73,7 +73,8 @@ class SimpleActionState(ServerWait, smach.State):
             server_wait_timeout, or it did not answer a cancel within preempt_timeout, or a
             goal/result callback raised.
         preempted: a preempt was requested; the goal (if sent) was cancelled and the
-            server confirmed (PREEMPTED or RECALLED).
+            server confirmed (PREEMPTED or RECALLED), or the client marked it LOST (a status
+            from before its acceptance came while the cancel waited for its ack).
         plus every outcome a @smach.cb_interface(outcomes=...) result_cb declares, or the
         `outcomes` argument for an undecorated one.
     Input keys: goal_key, goal_slots, input_keys, and the callbacks' declared input keys.
@@ -410,6 +411,15 @@ class SimpleActionState(ServerWait, smach.State):
             outcome = 'succeeded'
         elif (status in (GoalStatus.PREEMPTED, GoalStatus.RECALLED)
               and self.preempt_requested()):
+            self.service_preempt()
+            outcome = 'preempted'
+        elif status == GoalStatus.LOST and self.preempt_requested():
+            # actionlib's client marks a goal LOST when, with its cancel waiting for an ack, a
+            # status array from before the goal's acceptance comes in (a busy machine: the
+            # preempt came before the client heard the goal was accepted). The cancel went out
+            # and reaches the server, so this is the preempt, not a failure of the action.
+            rospy.logwarn("Action '%s': goal LOST after its cancel (status from before its "
+                          "acceptance): taken as preempted" % self._action_name)
             self.service_preempt()
             outcome = 'preempted'
         else:
