@@ -2,7 +2,8 @@
 name of every failed test and the first lines of why it failed (its JUnit message and text: a CI
 log then says what went wrong, not only where).
 
-Exit status 1 when any test failed or errored, or when no test ran at all.
+Exit status 1 when any test failed or errored (a suite's errors outside any test case, such as
+a failed setUpClass, count too), or when no test ran at all.
 """
 import glob
 import os
@@ -32,6 +33,7 @@ def count(path):
     tests = failures = errors = skipped = 0
     failed = []
     for suite in suites:
+        counted = failures + errors
         for case in suite.iter('testcase'):
             tests += 1
             bad = case.find('failure')
@@ -44,7 +46,27 @@ def count(path):
                 failed.append(('%s.%s' % (case.get('classname'), case.get('name')), why(bad)))
             elif case.find('skipped') is not None:
                 skipped += 1
+        # errors outside any test case: rosunit writes a failed setUpClass (or a test process
+        # that never ran a test) as <testsuite errors="1" tests="0"> with no <testcase>
+        declared = _int(suite.get('errors')) + _int(suite.get('failures'))
+        outside = declared - (failures + errors - counted)
+        if outside > 0:
+            tests += outside      # counted as one failed test each
+            errors += outside
+            lines = [line.rstrip() for tag in ('system-out', 'system-err')
+                     for node in suite.iter(tag) for line in (node.text or '').splitlines()
+                     if line.strip() and line.strip() not in ('<![CDATA[', ']]>')]
+            failed.append(('%s (%d error(s) outside any test case, e.g. in setUpClass: the '
+                           "test node's log has the traceback)" % (suite.get('name'), outside),
+                           lines[:WHY_LINES]))
     return tests, failures, errors, skipped, failed
+
+
+def _int(text):
+    try:
+        return int(text or 0)
+    except ValueError:
+        return 0
 
 
 def main(results_dir):

@@ -47,3 +47,16 @@ def test_all_passed_is_exit_status_0_and_no_result_at_all_is_1(summary, tmp_path
     assert summary.main(str(tmp_path)) == 0
     assert capsys.readouterr().out.splitlines() == ['1 passed, 0 failed, 0 skipped']
     assert summary.main(str(tmp_path / 'none')) == 1
+
+
+def test_an_error_outside_any_test_case_fails(summary, tmp_path, capsys):
+    # rosunit's file when setUpClass failed: no <testcase>, only the suite's error count
+    (tmp_path / 'ok.xml').write_text('<testsuite><testcase classname="a" name="b"/></testsuite>')
+    (tmp_path / 'rosunit-motion_server_test.xml').write_text(
+        '<testsuite errors="1" failures="0" name="unittest.suite.TestSuite" tests="0">'
+        '<system-out><![CDATA[\n\n]]></system-out></testsuite>')
+    assert summary.main(str(tmp_path)) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith('FAILED rosunit-motion_server_test.xml: unittest.suite.TestSuite '
+                             '(1 error(s) outside any test case')
+    assert out[-1] == '1 passed, 1 failed, 0 skipped'
