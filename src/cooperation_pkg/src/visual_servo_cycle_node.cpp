@@ -4,6 +4,7 @@
  */
 #include "cooperation_pkg/visual_servo_cycle_node.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -19,6 +20,12 @@ namespace cooperation_pkg
 namespace
 {
 const char *const LOG = VISUAL_SERVO_LOG;
+/// depth probe: tf at an image time within this of tf now (m): the tool stood still for the image
+const double PROBE_STILL_TOLERANCE = 0.0005;
+/// depth probe: after the sideways move the tool within this of its goal (m; the controller's window)
+const double PROBE_GOAL_TOLERANCE = 0.002;
+/// depth probe: images taken for one view before the probe is skipped
+const int PROBE_IMAGE_TRIES = 3;
 
 geometry_msgs::Twist toTwist(const vpColVector &v)
 {
@@ -215,21 +222,47 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
   // range the fruit (not seen, refused) leaves the target as it was: only a failed move ends the goal
   harvest_msgs::ServoFeature seen[2];
   vpHomogeneousMatrix base_M_cam[2];
+  bool moved = false;         // the sideways move is done: the second image is after it
+  vpTranslationVector sideways;  // the tool point it was sent to
   for (int k = 0; k < 2; ++k)
   {
-    Step st = requestFeature(goal.target, seen[k], why);
-    if (st != Step::OK)
+    geometry_msgs::TransformStamped base_from_cam, base_from_tool, base_from_tool_now;
+    // Each image must show the tool standing still: tf at the image time must agree with tf now
+    // (and, after the sideways move, with its goal). A millimetre of pose error is several of
+    // depth over the short baseline, and on a busy machine tf at an image time just after a move
+    // can still hold the move (joint states stamped late); then the next image is taken.
+    for (int attempt = 1;; ++attempt)
     {
-      ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (image %d: %s)", k + 1,
-                     st == Step::LOST ? "target not seen" : why.c_str());
-      return st == Step::PREEMPTED ? st : Step::OK;
-    }
-    geometry_msgs::TransformStamped base_from_cam, base_from_tool;
-    if (!lookup(base_frame_, camera_frame_, seen[k].header.stamp, base_from_cam, why) ||
-        !lookup(base_frame_, tool_frame_, seen[k].header.stamp, base_from_tool, why))
-    {
-      ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (%s)", why.c_str());
-      return Step::OK;
+      Step st = requestFeature(goal.target, seen[k], why);
+      if (st != Step::OK)
+      {
+        ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (image %d: %s)", k + 1,
+                       st == Step::LOST ? "target not seen" : why.c_str());
+        return st == Step::PREEMPTED ? st : Step::OK;
+      }
+      if (!lookup(base_frame_, camera_frame_, seen[k].header.stamp, base_from_cam, why) ||
+          !lookup(base_frame_, tool_frame_, seen[k].header.stamp, base_from_tool, why) ||
+          !lookup(base_frame_, tool_frame_, ros::Time(0), base_from_tool_now, why))
+      {
+        ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (%s)", why.c_str());
+        return Step::OK;
+      }
+      const vpTranslationVector at = toHomogeneous(base_from_tool).getTranslationVector();
+      const double off = std::max(
+          (at - toHomogeneous(base_from_tool_now).getTranslationVector()).frobeniusNorm(),
+          moved ? (at - sideways).frobeniusNorm() - PROBE_GOAL_TOLERANCE : 0.0);
+      if (off <= PROBE_STILL_TOLERANCE)
+      {
+        break;
+      }
+      if (attempt >= PROBE_IMAGE_TRIES)
+      {
+        ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (image %d: the tool not standing still at the "
+                            "image time in %d images, %.1f mm off)", k + 1, attempt, off * 1e3);
+        return Step::OK;
+      }
+      ROS_INFO_NAMED(LOG, "visual_servo: depth probe image %d: the tool %.1f mm off where it stands at the image "
+                          "time; another image", k + 1, off * 1e3);
     }
     base_M_cam[k] = toHomogeneous(base_from_cam);
     if (k == 1)
@@ -237,11 +270,12 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
       break;
     }
     // sideways: along the camera's x axis (horizontal), the tool rigidly with it
-    const geometry_msgs::PointStamped tool_goal = toolGoal(
-        nextToolPoint(base_M_cam[0].getRotationMatrix().t(), toHomogeneous(base_from_tool).getTranslationVector(),
-                      vpTranslationVector(s.depth_probe, 0.0, 0.0)));
+    sideways = nextToolPoint(base_M_cam[0].getRotationMatrix().t(),
+                             toHomogeneous(base_from_tool).getTranslationVector(),
+                             vpTranslationVector(s.depth_probe, 0.0, 0.0));
+    const geometry_msgs::PointStamped tool_goal = toolGoal(sideways);
     trajectory_msgs::JointTrajectoryPoint joints;
-    st = solveIk(tool_goal, joints, why);
+    Step st = solveIk(tool_goal, joints, why);
     if (st == Step::PREEMPTED)
     {
       return st;
@@ -257,6 +291,7 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
       return st;  // a failed move: the arm is not where it was asked to go
     }
     last_cmd = joints;
+    moved = true;
   }
   const ProbeFix fix = triangulateProbe(base_M_cam[0], seen[0].x, seen[0].y, base_M_cam[1], seen[1].x, seen[1].y,
                                         target_base, s.depth_probe_max_shift, s.depth_probe_max_side);
