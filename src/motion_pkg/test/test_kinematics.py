@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
+from hypothesis import example, given, settings, strategies as st
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
@@ -211,6 +211,8 @@ def test_home_pose_within_limits_and_clear():
 
 @FAST
 @given(st.lists(st.floats(-1, 1), min_size=12, max_size=12))
+@example([0.0, 0.0, 0.0, -1.192092896e-07, 0.0, -0.9999999999999999,
+          -5.960464477539063e-08, 0.0, -1.0, 0.0, 0.0, 0.5])   # crossing, 1e-7 rad apart
 def test_segment_distance_matches_sampling(v):
     p1, q1, p2, q2 = (np.array(v[i:i + 3]) for i in range(0, 12, 3))
     d = kin.segment_distance(p1, q1, p2, q2)
