@@ -4,7 +4,6 @@
  */
 #include "cooperation_pkg/visual_servo_cycle_node.h"
 
-#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -22,8 +21,8 @@ namespace
 const char *const LOG = VISUAL_SERVO_LOG;
 /// depth probe: tf at an image time within this of tf now (m): the tool stood still for the image
 const double PROBE_STILL_TOLERANCE = 0.0005;
-/// depth probe: after the sideways move the tool within this of its goal (m; the controller's window)
-const double PROBE_GOAL_TOLERANCE = 0.002;
+/// depth probe: after the sideways move the tool at the image time within this of its goal (m)
+const double PROBE_GOAL_TOLERANCE = 0.0025;
 /// depth probe: images taken for one view before the probe is skipped
 const int PROBE_IMAGE_TRIES = 3;
 
@@ -248,21 +247,21 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
         return Step::OK;
       }
       const vpTranslationVector at = toHomogeneous(base_from_tool).getTranslationVector();
-      const double off = std::max(
-          (at - toHomogeneous(base_from_tool_now).getTranslationVector()).frobeniusNorm(),
-          moved ? (at - sideways).frobeniusNorm() - PROBE_GOAL_TOLERANCE : 0.0);
-      if (off <= PROBE_STILL_TOLERANCE)
+      const double off_now = (at - toHomogeneous(base_from_tool_now).getTranslationVector()).frobeniusNorm();
+      const double off_goal = moved ? (at - sideways).frobeniusNorm() : 0.0;
+      if (off_now <= PROBE_STILL_TOLERANCE && off_goal <= PROBE_GOAL_TOLERANCE)
       {
         break;
       }
       if (attempt >= PROBE_IMAGE_TRIES)
       {
         ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (image %d: the tool not standing still at the "
-                            "image time in %d images, %.1f mm off)", k + 1, attempt, off * 1e3);
+                            "image time in %d images: %.1f mm from where it stands, %.1f mm from its goal)",
+                       k + 1, attempt, off_now * 1e3, off_goal * 1e3);
         return Step::OK;
       }
-      ROS_INFO_NAMED(LOG, "visual_servo: depth probe image %d: the tool %.1f mm off where it stands at the image "
-                          "time; another image", k + 1, off * 1e3);
+      ROS_INFO_NAMED(LOG, "visual_servo: depth probe image %d: at the image time the tool is %.1f mm from where it "
+                          "stands, %.1f mm from its goal; another image", k + 1, off_now * 1e3, off_goal * 1e3);
     }
     base_M_cam[k] = toHomogeneous(base_from_cam);
     if (k == 1)
