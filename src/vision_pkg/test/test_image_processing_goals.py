@@ -182,6 +182,20 @@ def test_tomato_markers_sphere_and_text_per_located_fruit():
     assert markers[4].text == '0.50'
 
 
+def test_fresh_since_takes_the_later_of_arrival_and_request():
+    arrival, lead = genpy.Time(100, 0), genpy.Duration(2.0)
+    # a client whose clock is ahead (this node's /clock lags): data from its request on
+    assert goals.fresh_since(arrival, genpy.Time(100, 600000000), lead) == (
+        genpy.Time(100, 600000000), False)
+    # a request stamped before its arrival (the usual case): from the arrival
+    assert goals.fresh_since(arrival, genpy.Time(99, 0), lead) == (arrival, False)
+    # no stamp set by the client
+    assert goals.fresh_since(arrival, genpy.Time(0, 0), lead) == (arrival, False)
+    # further ahead than max_lead: clocks apart, not a lag; from the arrival, flagged
+    assert goals.fresh_since(arrival, genpy.Time(103, 0), lead) == (arrival, True)
+    assert goals.fresh_since(arrival, genpy.Time(102, 0), lead) == (genpy.Time(102, 0), False)
+
+
 def test_node_module_keeps_its_names():
     pytest.importorskip('rospy')
     pytest.importorskip('actionlib')

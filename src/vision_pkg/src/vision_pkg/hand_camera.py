@@ -43,9 +43,9 @@ class HandCamera(object):
         return self._wait(ready, goal, 'hand camera image on %s with camera_info'
                           % names.HAND_IMAGE, self.hand_trigger)
 
-    def servo_feature(self, hint, state, arrival):
+    def servo_feature(self, hint, state, fresh_from):
         """ServoFeature of the tomato nearest to the hint's projection in the hand camera."""
-        since = arrival if self.fresh_data else rospy.Time(0)
+        since = fresh_from if self.fresh_data else rospy.Time(0)
         image_msg, info = self._hand_data(state, since)
         try:
             bgr = self.bridge.imgmsg_to_cv2(image_msg, 'bgr8')

@@ -25,6 +25,21 @@ class Cancelled(Exception):
     """The client cancelled the goal."""
 
 
+def fresh_since(arrival, requested, max_lead):
+    """(time, skewed): data for a goal count as fresh from this stamp on. That is the goal's
+    request stamp (actionlib's goal_id.stamp: the client's clock when it sent the goal) when it
+    is later than the goal's arrival (this node's clock, which in simulated time lags the
+    client's while a busy process works through its /clock backlog: an image taken before the
+    client's last move then passed as fresh). A zero stamp (not set), or one more than max_lead
+    ahead of the arrival (clocks of two machines apart: skewed=True), counts from the arrival.
+    Times and durations are rospy's (genpy's)."""
+    if requested.is_zero() or not requested > arrival:
+        return arrival, False
+    if requested - arrival > max_lead:
+        return arrival, True
+    return requested, False
+
+
 class RunningGoal(object):
     """Cancellation flag of one running goal."""
 

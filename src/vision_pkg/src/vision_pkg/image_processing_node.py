@@ -22,10 +22,11 @@ Published topics
 Timing: every wait and timeout is in ROS time (sim time under /use_sim_time): nothing depends
   on how fast the wall clock runs. Fresh data is judged by stamps: a goal takes the first
   stereo pair (right image and point cloud with equal stamps) or hand image stamped at or after
-  its arrival.
+  its arrival, or after its request stamp (goal_id.stamp) when that is later (a lagging /clock
+  here) by at most ~max_request_lead.
 Parameters (defaults in code and config/image_processing.yaml)
   ~target_frame (base_link), ~min_ripeness (0.7), ~fresh_data (true), ~data_timeout (5.0 s),
-  ~tf_timeout (0.5 s), ~row_tolerance_px (40), ~stereo_detection/* and ~hand_detection/*
+  ~max_request_lead (2.0 s), ~tf_timeout (0.5 s), ~row_tolerance_px (40), ~stereo_detection/* and ~hand_detection/*
   (detector parameters, see vision_pkg.detection.DEFAULTS; dynamic_reconfigure's colour and
   fill thresholds apply to both detectors, except keys that ~hand_detection sets), ~expected_rate (10 Hz, for
   diagnostics; 0: frames come on demand, no rate check), ~hand_expected_rate (10 Hz; 0 idem),
@@ -91,6 +92,7 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
         self.min_ripeness = float(rospy.get_param('~min_ripeness', 0.7))
         self.fresh_data = bool(rospy.get_param('~fresh_data', True))
         self.data_timeout = float(rospy.get_param('~data_timeout', 5.0))
+        self.max_request_lead = rospy.Duration(float(rospy.get_param('~max_request_lead', 2.0)))
         self.tf_timeout = float(rospy.get_param('~tf_timeout', 0.5))
         # a pickable tomato's fitted sphere must have a tomato's size (leaves and stems do not)
         self.min_fruit_radius = float(rospy.get_param('~min_fruit_radius', 0.018))
@@ -241,11 +243,21 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
         state = RunningGoal()
         self._goals[gid] = state
         handle.set_accepted()
-        arrival = rospy.get_rostime()
-        worker = threading.Thread(target=self._serve, args=(handle, goal, state, gid, arrival),
+        fresh_from = self._fresh_since(handle.get_goal_id().stamp)
+        worker = threading.Thread(target=self._serve, args=(handle, goal, state, gid, fresh_from),
                                   name='image_processing_goal')
         worker.daemon = True
         worker.start()
+
+    def _fresh_since(self, requested):
+        """ROS time from which a goal requested at `requested` takes data (fresh_since)."""
+        arrival = rospy.get_rostime()
+        since, skewed = goals.fresh_since(arrival, requested, self.max_request_lead)
+        if skewed:
+            rospy.logwarn_throttle(10.0, 'image_processing: a goal stamped %.3f s ahead of this '
+                                   'node\'s clock (clocks of two machines apart?): fresh data '
+                                   'count from its arrival' % (requested - arrival).to_sec())
+        return since
 
     def _on_cancel(self, handle):
         state = self._goals.get(handle.get_goal_id().id)
@@ -254,15 +266,15 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
             with self._cond:
                 self._cond.notify_all()
 
-    def _serve(self, handle, goal, state, gid, arrival):
+    def _serve(self, handle, goal, state, gid, fresh_from):
         result = ImageProcessingResult()
         try:
             if goal.request == ImageProcessingGoal.SPATIAL_POSITIONING:
                 result.tomatoes = self.spatial_positioning(goal.target_frame, goal.min_ripeness,
-                                                           state, arrival)
+                                                           state, fresh_from)
                 result.message = goals.positioning_message(result.tomatoes)
             elif goal.request == ImageProcessingGoal.SERVO_FEATURE:
-                result.feature = self.servo_feature(goal.target_hint, state, arrival)
+                result.feature = self.servo_feature(goal.target_hint, state, fresh_from)
                 result.message = goals.servo_message(result.feature)
             else:
                 raise Aborted('unknown request %d (SPATIAL_POSITIONING=0, SERVO_FEATURE=1)'
@@ -287,8 +299,9 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
         goal = self.scan_server.accept_new_goal()
         state = RunningGoal()
         self._scan_goal = state
-        worker = threading.Thread(target=self._serve_scan,
-                                  args=(goal, state, rospy.get_rostime()), name='tomato_scan')
+        since = self._fresh_since(self.scan_server.current_goal.get_goal_id().stamp)
+        worker = threading.Thread(target=self._serve_scan, args=(goal, state, since),
+                                  name='tomato_scan')
         worker.daemon = True
         worker.start()
 
@@ -298,10 +311,10 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
             with self._cond:
                 self._cond.notify_all()
 
-    def _serve_scan(self, goal, state, arrival):
+    def _serve_scan(self, goal, state, fresh_from):
         result = TomatoScanResult()
         try:
-            result.tomatoes = self.spatial_positioning(goal.target_frame, 0.0, state, arrival)
+            result.tomatoes = self.spatial_positioning(goal.target_frame, 0.0, state, fresh_from)
             result.pickable_count = goals.pickable_count(result.tomatoes)
             result.success = True
             result.message = goals.scan_message(goal.picking_point, result.tomatoes,
@@ -325,11 +338,11 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
             self.scan_server.set_aborted(result, result.message)
 
     # -- the two requests (SERVO_FEATURE: hand_camera) ----------------------------------------
-    def spatial_positioning(self, target_frame, min_ripeness, state, arrival):
+    def spatial_positioning(self, target_frame, min_ripeness, state, fresh_from):
         """TomatoArray for the next stereo pair (see module docstring)."""
         threshold = goals.ripeness_threshold(min_ripeness, self.min_ripeness)
         frame = target_frame or self.target_frame
-        since = arrival if self.fresh_data else rospy.Time(0)
+        since = fresh_from if self.fresh_data else rospy.Time(0)
         image_msg, cloud_msg, info = self._stereo_pair(state, since)
         found = self._detect_and_locate(image_msg, cloud_msg, info)
         cloud_frame = cloud_msg.header.frame_id
