@@ -26,11 +26,11 @@ Timing: every wait and timeout is in ROS time (sim time under /use_sim_time): no
   here) by at most ~max_request_lead.
 Parameters (defaults in code and config/image_processing.yaml)
   ~target_frame (base_link), ~min_ripeness (0.7), ~fresh_data (true), ~data_timeout (5.0 s),
-  ~max_request_lead (2.0 s), ~tf_timeout (0.5 s), ~row_tolerance_px (40), ~stereo_detection/* and ~hand_detection/*
-  (detector parameters, see vision_pkg.detection.DEFAULTS; dynamic_reconfigure's colour and
-  fill thresholds apply to both detectors, except keys that ~hand_detection sets), ~expected_rate (10 Hz, for
-  diagnostics; 0: frames come on demand, no rate check), ~hand_expected_rate (10 Hz; 0 idem),
-  ~trigger_period (1.0 s)
+  ~max_request_lead (2.0 s), ~tf_timeout (0.5 s), ~row_tolerance_px (40), ~stereo_detection/*
+  and ~hand_detection/* (detector parameters, see vision_pkg.detection.DEFAULTS;
+  dynamic_reconfigure's colour and fill thresholds apply to both detectors, except keys that
+  ~hand_detection sets), ~expected_rate (10 Hz, for diagnostics; 0: frames come on demand, no
+  rate check), ~hand_expected_rate (10 Hz; 0 idem), ~trigger_period (1.0 s)
 """
 import threading
 
