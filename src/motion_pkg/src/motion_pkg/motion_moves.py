@@ -13,6 +13,25 @@ from motion_pkg.modbus_driver import ConnectionLost, DriverError
 from motion_pkg.motion_active_goals import _Active, _internal_error, answer
 
 
+#: a goal that still reports progress
+_RUNNING = (GoalStatus.PENDING, GoalStatus.ACTIVE, GoalStatus.PREEMPTING)
+
+
+def progress_feedback(handle, monitor, make):
+    """Publish `make(percent)` as the goal's feedback when the monitor's percent is above the
+    last one it reported. Polls run in the poll thread and in goal callbacks, and each feeds
+    its goals after the poll lock is released, so two threads can feed one goal: the check and
+    the publication are one step under the goal's action server lock (an RLock that a goal
+    callback already holds), and a feedback of an older poll never follows a newer one (nor
+    the goal's result)."""
+    with handle.action_server.lock:
+        percent = monitor.percent
+        if percent > getattr(monitor, 'sent', -1) and \
+                handle.get_goal_status().status in _RUNNING:
+            monitor.sent = percent
+            handle.publish_feedback(make(percent))
+
+
 class AxesMovesMixin(object):
     """move_robot and move_base goal handling of MotionServer."""
 
@@ -147,9 +166,8 @@ class AxesMovesMixin(object):
         return _Active(key, handle, monitor, finish, feedback, resend=write)
 
     def _feedback_move_robot(self, handle, monitor, _state):
-        if monitor.percent != getattr(monitor, 'sent', None):
-            monitor.sent = monitor.percent
-            handle.publish_feedback(MoveRobotFeedback(percent_complete=monitor.percent))
+        progress_feedback(handle, monitor,
+                          lambda percent: MoveRobotFeedback(percent_complete=percent))
 
     def _finish_move_robot(self, handle, outcome, _state, preempted=False):
         result = MoveRobotResult(succeed=outcome.code)
@@ -191,10 +209,8 @@ class AxesMovesMixin(object):
                                      self._feedback_move_base)
 
     def _feedback_move_base(self, handle, monitor, _state):
-        if monitor.percent != getattr(monitor, 'sent', None):
-            monitor.sent = monitor.percent
-            handle.publish_feedback(MoveBaseFeedback(track_position=monitor.positions[0],
-                                                     percent_complete=monitor.percent))
+        progress_feedback(handle, monitor, lambda percent: MoveBaseFeedback(
+            track_position=monitor.positions[0], percent_complete=percent))
 
     def _finish_move_base(self, handle, outcome, state, preempted=False):
         cart = self.regmap.axis('cart').index
