@@ -17,6 +17,9 @@ Params:
       [target_id, y]; tomatoes at x 0.5, z 0.9 as the scan puts them) until a finished checkpoint of
       that mission comes; none: get_checkpoint finds nothing
   ~records (list of [picking_point, target_id, y], optional): get_mission_records' picked records
+Subscribes to mock/hold_moves (std_msgs/Bool): while the last one said true, a MoveRobot goal of
+the one-goal server waits (preemptable) before it starts its move_duration, so a test can look
+at the mission while one state stays active; notes "hold_moves on|off" on mock/goals.
 Serves get_checkpoint and get_mission_records (database_pkg's), notes every checkpoint on mock/goals
 ("checkpoint <phase> <holding> <finished>").
 Publishes mock/halt_count (std_msgs/Int32, latched), mock/goals (std_msgs/String: "<action> <detail>")
@@ -29,7 +32,7 @@ import actionlib
 import rospy
 from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
-from std_msgs.msg import Int32, String
+from std_msgs.msg import Bool, Int32, String
 from std_srvs.srv import Trigger, TriggerResponse
 
 from geometry_msgs.msg import Point
@@ -70,6 +73,9 @@ class MockServers(object):
         self.checkpoint = rospy.get_param('~checkpoint', None)
         self.records = rospy.get_param('~records', [])
         rospy.Subscriber('mission/checkpoints', Checkpoint, self.on_checkpoint, queue_size=100)
+        self.hold = threading.Condition()
+        self.holding = False
+        rospy.Subscriber('mock/hold_moves', Bool, self.on_hold, queue_size=10)
         rospy.Service('get_checkpoint', GetCheckpoint, self.get_checkpoint)
         rospy.Service('get_mission_records', GetMissionRecords, self.get_records)
         self.servers = []
@@ -178,8 +184,21 @@ class MockServers(object):
             result.joint_goal.positions = [0.1, 0.2, 0.3]
         self.kinematics_server.set_succeeded(result)
 
+    def on_hold(self, msg):
+        with self.hold:
+            self.holding = msg.data
+            self.hold.notify_all()
+        self.note('hold_moves %s' % ('on' if msg.data else 'off'))
+
     def move_robot(self, goal):
         self.note('move_robot %s' % ('left' if goal.arm else 'right'))
+        with self.hold:
+            while self.holding and not rospy.is_shutdown():
+                if self.move_robot_server.is_preempt_requested():
+                    self.move_robot_server.set_preempted(MoveRobotResult(succeed=-3),
+                                                         'preempted while held')
+                    return
+                self.hold.wait(0.05)
         done = threading.Event()
         deadline = rospy.Time.now() + rospy.Duration(self.move_duration)
         while rospy.Time.now() < deadline and not rospy.is_shutdown():
