@@ -20,10 +20,27 @@ class EmergencyStopAndResume(object):
     """The emergency stop and resume of TaskPlanner: topic and service callbacks, halt_all."""
 
     def _estop_topic_cb(self, msg):
-        if msg.data:
+        """The topic is the stop button's level, latched by its publishers: a stop is its rise
+        to true, a resume its fall to false. A true that finds the level true already is no
+        new stop (stop_heard_by_motion)."""
+        with self._estop_level_lock:
+            rising = msg.data and not self._estop_level
+            self._estop_level = bool(msg.data)
+        if rising:
             self.request_stop('emergency_stop topic')
-        else:
+        elif not msg.data:
             self.request_resume('emergency_stop topic released')
+        else:
+            rospy.loginfo('task_planner: emergency_stop topic true, as already known: no new stop')
+
+    def stop_heard_by_motion(self, source):
+        """A goal came back halted by the emergency stop topic, which motion_server heard before
+        this node did: the topic is true. Its message can reach this node after the operator's
+        resume (a busy machine: it then stopped the resumed mission again, for good), so the
+        level is noted true here and that message is no new stop."""
+        with self._estop_level_lock:
+            self._estop_level = True
+        self.request_stop(source)
 
     def _estop_srv(self, req):
         self.request_stop('emergency_stop service')

@@ -7,7 +7,8 @@ message and the publishers' listeners in executive_publishers.py (each re-export
 Node `task_planner`
   Action clients (relative names, see config/executive.yaml `actions`): self_test, move_base,
     tomato_scan, spatial_temporal, kinematics, move_robot, end_effector, visual_servo
-  Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: true = stop),
+  Subscribes: emergency_stop (std_msgs/Bool, latched by publishers: the stop button's level; its
+              rise to true stops, its fall to false resumes),
               plan/picking_points (std_msgs/Int32MultiArray, latched: the day's plan, visit order)
   Services:   ~start, ~emergency_stop, ~resume (std_srvs/Trigger; ~start when ~autostart is false;
               ~resume ends an emergency stop, or continues a mission that DO_ERROR ended once the
@@ -109,6 +110,8 @@ class TaskPlanner(EmergencyStopAndResume):
 
         self.estop = threading.Event()
         self.resume = threading.Event()
+        self._estop_level = False          # the emergency_stop topic's last value (or true: motion)
+        self._estop_level_lock = threading.Lock()
         self.checkpoints = checkpoint_lib.CheckpointKeeper(self.mission_id, self.robot_name,
                                                            publish=self.publish_checkpoint)
         self.context = MissionContext(self.config, self.progress, self.recorder,
@@ -116,7 +119,7 @@ class TaskPlanner(EmergencyStopAndResume):
                                       publish_record=self.publish_record, halt=self.halt_axes,
                                       checkpoint=self.checkpoints)
         self.context.stopping = self.estop.is_set
-        self.context.request_stop = self.request_stop
+        self.context.request_stop = self.stop_heard_by_motion
         self.resuming = resumed is not None
         if resumed is not None:
             self._prepare_resume(resumed)
