@@ -264,6 +264,17 @@ class TaskPlanner(EmergencyStopAndResume):
         self._plan_received.set()
         rospy.loginfo('task_planner: plan of the day received: picking points %s', self._plan)
 
+    def _plan_published(self):
+        """Whether a node publishes the day's plan: connected, or known to the master."""
+        if self._plan_sub.get_num_connections() > 0:
+            return True
+        try:
+            topic = self._plan_sub.resolved_name
+            return any(name == topic for name, _ in rospy.get_published_topics())
+        except Exception as exc:  # noqa: BLE001 - no master answer: go by the connections
+            rospy.logwarn('task_planner: cannot ask the master for a plan publisher: %s', exc)
+            return False
+
     def _load_points(self):
         """The picking points to visit: ~picking_points; else the day's plan from the farm server
         (latched `plan/picking_points`, network_pkg's uploader); else every point of the track.
@@ -272,8 +283,9 @@ class TaskPlanner(EmergencyStopAndResume):
         (/track/picking_points, set by the site configuration or the simulator) may come late.
         """
         points = rospy.get_param('~picking_points', None)
-        if points is None and self._plan_sub.get_num_connections() > 0:
-            # a plan publisher is connected: its latched plan is on its way
+        if points is None and self._plan is None and self._plan_published():
+            # a plan publisher is there: its latched plan is on its way (the connection to a
+            # publisher that the master knows may still be in its handshake)
             self._plan_received.wait(5.0)
         if points is None and self._plan is not None:
             points = self._plan
