@@ -92,8 +92,16 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     # support: points within 1 px + 3 % of r of each circle, from the squared distances of
     # every point to every centre as one matrix product
     tol = 1.0 + 0.03 * r
-    pts = np.column_stack([xs, ys, xs * xs + ys * ys])
-    d2 = pts.dot(np.stack([-2.0 * cx, -2.0 * cy, np.ones_like(cx)])) + (cx * cx + cy * cy)
+    pts = np.empty((n, 3))
+    pts[:, 0] = xs
+    pts[:, 1] = ys
+    pts[:, 2] = xs * xs + ys * ys
+    centres = np.empty((3, len(cx)))
+    np.multiply(cx, -2.0, out=centres[0])
+    np.multiply(cy, -2.0, out=centres[1])
+    centres[2] = 1.0
+    d2 = pts.dot(centres)
+    d2 += cx * cx + cy * cy
     within = (d2 >= np.maximum(r - tol, 0.0) ** 2) & (d2 <= (r + tol) ** 2)
     support = within.sum(axis=0)
     best = int(np.argmax(support))
@@ -129,24 +137,35 @@ def hull_distance(hull, xs, ys):
     Inside a convex polygon the nearest boundary point lies on the edge whose line is nearest,
     so the distance is the smallest distance to the edges' lines (no segment clipping)."""
     pts = hull.reshape(-1, 2).astype(np.float64)
-    ab = np.roll(pts, -1, axis=0) - pts
+    # edge vectors to the next vertex, the last one closing the polygon (np.roll's result
+    # without its cost, which dominated this function on hulls of a few dozen vertices)
+    ab = np.empty_like(pts)
+    np.subtract(pts[1:], pts[:-1], out=ab[:-1])
+    np.subtract(pts[0], pts[-1], out=ab[-1])
     length = np.sqrt((ab * ab).sum(1))
-    keep = length > 1e-9
-    if not keep.any():
-        return np.hypot(xs - pts[0, 0], ys - pts[0, 1])
-    pts, ab, length = pts[keep], ab[keep], length[keep]
+    if not length.min() > 1e-9:
+        keep = length > 1e-9
+        if not keep.any():
+            return np.hypot(xs - pts[0, 0], ys - pts[0, 1])
+        pts, ab, length = pts[keep], ab[keep], length[keep]
     # |cross(ab, p - a)| / |ab| for every point and edge: (n x 2) . (2 x m) minus a constant
-    normal = np.stack([-ab[:, 1], ab[:, 0]]) / length
-    offset = (pts * normal.T).sum(1)
-    p = np.column_stack([xs, ys]).astype(np.float64)
-    return np.abs(p.dot(normal) - offset).min(axis=1)
+    normal = np.empty((2, len(ab)))
+    np.divide(-ab[:, 1], length, out=normal[0])
+    np.divide(ab[:, 0], length, out=normal[1])
+    offset = pts[:, 0] * normal[0] + pts[:, 1] * normal[1]
+    p = np.empty((len(xs), 2))
+    p[:, 0] = xs
+    p[:, 1] = ys
+    d = p.dot(normal)
+    d -= offset
+    return np.abs(d, out=d).min(axis=1)
 
 
 def fit_part(part, outer, peak_r, r_high=3.0):
     """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
     lie on its convex hull, radius in [0.8, r_high] x the inscribed radius `peak_r` (+2);
     residual = median radial misfit / r (1.0 for the fallback)."""
-    part8 = part.astype(np.uint8)
+    part8 = (part if part.dtype == bool else part != 0).astype(np.uint8)     # 0 and 1 only
     # the work is done on the part's bounding box (+1 px): a part of a large cluster is
     # a small share of its region's crop
     bx, by, bw, bh = cv2.boundingRect(part8)
@@ -162,7 +181,7 @@ def fit_part(part, outer, peak_r, r_high=3.0):
 
 def _fit_crop(part8, outer, peak_r, r_high):
     """fit_part() on a crop: part as 0/1 uint8."""
-    ys, xs = np.nonzero((part8 > 0) & outer)
+    ys, xs = np.nonzero(outer & part8.view(bool))      # part8 holds 0 and 1 only
     moments = cv2.moments(part8, True)
     if moments['m00'] <= 0:
         return None
@@ -202,5 +221,16 @@ def _fit_crop(part8, outer, peak_r, r_high):
         return fallback
     if math.hypot(cx - mx, cy - my) > r:
         return fallback
-    residual = float(np.median(np.abs(np.hypot(xs - cx, ys - cy) - r))) / r
+    residual = _median(np.abs(np.hypot(xs - cx, ys - cy) - r)) / r
     return cx, cy, r, residual
+
+
+def _median(values):
+    """np.median of a 1-D float array (the same value) without its overhead, which is most
+    of its cost on the few hundred misfits of an outline."""
+    n = len(values)
+    half = n // 2
+    if n % 2:
+        return float(np.partition(values, half)[half])
+    low, high = np.partition(values, (half - 1, half))[half - 1:half + 1]
+    return float((low + high) / 2.0)
