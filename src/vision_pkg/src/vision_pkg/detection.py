@@ -308,7 +308,7 @@ class TomatoDetector(RegionSplitter, RoundSurface):
             return dark
         p = self.params
         low, high = float(p['shade_val_low']), max(float(p['shade_val_high']), p['shade_val_low'] + 1.0)
-        w = np.clip((hsv_pixels[:, 2].astype(np.float32) - low) / (high - low), 0.0, 1.0)
+        w = np.minimum(np.maximum((hsv_pixels[:, 2].astype(np.float32) - low) / (high - low), 0.0), 1.0)
         return dark + (self._shade[hue, sat] - dark) * w
 
     def _score_pixels(self, hsv_pixels, bgr_pixels, ripeness=None):

@@ -91,7 +91,8 @@ class RegionSplitter(object):
         y1 = min(int(math.ceil(cy + radius)) + 1, height)
         if x0 >= x1 or y0 >= y1:
             return None
-        yy, xx = np.mgrid[y0:y1, x0:x1]
+        # broadcast row and column (np.mgrid's values, without building its two grids)
+        yy, xx = np.arange(y0, y1)[:, None], np.arange(x0, x1)[None, :]
         return x0, y0, (xx - cx) ** 2 + (yy - cy) ** 2 <= radius * radius
 
     @staticmethod
@@ -191,7 +192,7 @@ class RegionSplitter(object):
         peak_rs = []
         for k, (px, py, pr) in enumerate(peaks):
             part = (parts == k)
-            area = part.sum()
+            area = np.count_nonzero(part)
             if area < math.pi * r_min * r_min * 0.3:
                 continue
             if strict and area > p['max_area_ratio'] * math.pi * pr * pr:
@@ -208,18 +209,18 @@ class RegionSplitter(object):
             # well as the parts explain theirs
             whole = self._fit_part(comp > 0, outer, max(pk[2] for pk in peaks))
             if whole is not None and whole[3] * whole[2] <= p['single_fit_residual_px']:
-                areas = [float(c[0].sum()) for c in candidates]
+                areas = [float(np.count_nonzero(c[0])) for c in candidates]
                 split = sum(a * c[1][3] for a, c in zip(areas, candidates)) / sum(areas) \
                     if candidates else 1.0
                 pys, pxs = np.nonzero(comp)
                 cx, cy, r = whole[:3]
-                if whole[3] <= split and np.mean(
+                if whole[3] <= split and _share(
                         (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
                     candidates = [(comp > 0, whole)]
         results = []
         in_front = {}        # candidate index -> the part of the fruit in front of it
         for index, (part, circle) in enumerate(candidates):
-            area = int(part.sum())
+            area = np.count_nonzero(part)
             cx, cy, r = circle[:3]
             residual = circle[3] if len(circle) > 3 else 1.0
             if r < r_min or (r > r_max and strict):
@@ -235,9 +236,9 @@ class RegionSplitter(object):
                 if refit is not None and refit[3] <= p['max_residual_refit']:
                     cx, cy, r, residual = refit
             inside = (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2
-            if not strict and np.mean(inside) < p['min_inside'] and \
+            if not strict and _share(inside) < p['min_inside'] and \
                     residual <= p['max_residual_refit'] and r_min <= r <= r_max and \
-                    inside.sum() >= p['min_fill_green'] * math.pi * r * r and \
+                    np.count_nonzero(inside) >= p['min_fill_green'] * math.pi * r * r and \
                     len(candidates) < 2 * int(p['max_peaks']) and \
                     outline_cover(outer, cx, cy, r) >= p['min_front_outline']:
                 # the circle follows its arc and is well filled, but much of the part lies
@@ -256,10 +257,10 @@ class RegionSplitter(object):
                 part = part.copy()
                 part[pys[~inside], pxs[~inside]] = False
                 pxs, pys = pxs[inside], pys[inside]
-                area = int(inside.sum())
+                area = np.count_nonzero(inside)
                 inside = 1.0
             else:
-                inside = float(np.mean(inside))
+                inside = _share(inside)
             if inside < p['min_inside'] and len(candidates) > 1:
                 # a fruit behind a neighbour and cut by leaves: its outline is mostly leaf
                 # edges and the border with the neighbour, which no circle follows; its
@@ -343,7 +344,7 @@ class RegionSplitter(object):
                 return None
             pys, pxs = np.nonzero(union)
             cx, cy, r = fit[:3]
-            if np.mean((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
+            if _share((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
                 return None
             return fit[3], union, fit
 
@@ -377,7 +378,12 @@ def share_inside(det, other):
         return 0.0
     u = (xs + det.mask_origin[0] + 0.5) / det.mask_scale - 0.5
     v = (ys + det.mask_origin[1] + 0.5) / det.mask_scale - 0.5
-    return float(np.mean((u - other.u) ** 2 + (v - other.v) ** 2 <= other.radius_px ** 2))
+    return _share((u - other.u) ** 2 + (v - other.v) ** 2 <= other.radius_px ** 2)
+
+
+def _share(flags):
+    """np.mean of a boolean array (the same float; NaN when empty) without its overhead."""
+    return float(np.count_nonzero(flags)) / flags.size if flags.size else float('nan')
 
 
 def fill_holes(comp):

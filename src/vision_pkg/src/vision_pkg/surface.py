@@ -58,7 +58,8 @@ class RoundSurface(object):
             ys = np.rint(cy + (r + dr) * sa).astype(np.int64)
             ok = (xs >= 1) & (ys >= 1) & (xs < width - 1) & (ys < height - 1)
             inside |= ok
-            xs, ys = np.clip(xs, 0, width - 1), np.clip(ys, 0, height - 1)
+            xs = np.minimum(np.maximum(xs, 0), width - 1)
+            ys = np.minimum(np.maximum(ys, 0), height - 1)
             radial = np.abs(frame.gx[ys, xs] * ca + frame.gy[ys, xs] * sa)
             best = np.maximum(best, np.where(ok, radial, 0.0))
         return np.where(inside, best, np.nan)
