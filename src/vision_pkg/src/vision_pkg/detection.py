@@ -51,6 +51,7 @@ import numpy as np
 from vision_pkg.circle_fit import arc_fit_circle, fit_circle, robust_fit_circle  # noqa: F401
 from vision_pkg.fruit import (STAGE_GREEN, STAGE_NAMES, STAGE_PINK, STAGE_RED,  # noqa: F401
                               STAGE_THRESHOLDS, STAGE_TURNING, Detection, stage_of)
+from vision_pkg.fruit import lab_hue_angle  # noqa: F401 (here before it moved to fruit)
 from vision_pkg.regions import Frame, RegionSplitter, share_inside
 from vision_pkg.surface import RoundSurface
 
@@ -121,21 +122,6 @@ DEFAULTS = {
     'shade_val_high': 160,      # ... (0: everywhere) the red side has pale_sat's pull, blended
     'skin_min_ripeness': 0.25,  # pass 1: pixels graded below this (green) are not skin
 }
-
-
-#: linear sRGB -> CIE XYZ (D65), rows X, Y, Z, divided by the D65 white point
-_RGB_TO_XYZ_WHITE = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722],
-                              [0.0193, 0.1192, 0.9505]]) / np.array([[0.95047], [1.0], [1.08883]])
-
-
-def lab_hue_angle(bgr):
-    """CIE Lab hue angle [deg] of one sRGB colour given as B, G, R in 0..255 (diagnostics;
-    computed here: OpenCV's Lab conversion sets up tables on its first call, ~0.1 s)."""
-    rgb = np.clip(np.asarray(bgr, dtype=np.float64)[::-1] / 255.0, 0.0, 1.0)
-    linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
-    t = _RGB_TO_XYZ_WHITE.dot(linear)
-    f = np.where(t > 0.008856, np.cbrt(t), 7.787 * t + 16.0 / 116.0)
-    return math.degrees(math.atan2(200.0 * (f[1] - f[2]), 500.0 * (f[0] - f[1])))
 
 
 class TomatoDetector(RegionSplitter, RoundSurface):
@@ -226,14 +212,18 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         if not p['white_balance']:
             return ones
         pix = bgr[::4, ::4].reshape(-1, 3)
-        top = pix.max(axis=1)
-        total = pix.astype(np.int32).sum(axis=1)
-        chroma = pix.astype(np.float32) / np.maximum(total, 1)[:, None].astype(np.float32)
+        # per channel (numpy's reductions along a 3-wide axis cost more than the arithmetic)
+        b, g, r = pix[:, 0], pix[:, 1], pix[:, 2]
+        top = np.maximum(np.maximum(b, g), r)
+        total = b.astype(np.int32) + g + r
+        norm = np.maximum(total, 1).astype(np.float32)
         box = float(p['wb_chroma_box'])
         neutral = 1.0 / 3.0
-        cand = (top < 250) & (top > 60) & (np.abs(chroma - neutral).max(axis=1) <= box) & \
-            (chroma[:, 1] <= float(p['wb_max_green']))
-        count = int(cand.sum())
+        cand = (top < 250) & (top > 60)
+        for channel in (b, g, r):
+            cand &= np.abs(channel.astype(np.float32) / norm - neutral) <= box
+        cand &= g.astype(np.float32) / norm <= float(p['wb_max_green'])
+        count = np.count_nonzero(cand)
         if count < max(20, float(p['wb_min_fraction']) * len(pix)):
             return ones
         total = total[cand]
@@ -311,17 +301,19 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         w = np.minimum(np.maximum((hsv_pixels[:, 2].astype(np.float32) - low) / (high - low), 0.0), 1.0)
         return dark + (self._shade[hue, sat] - dark) * w
 
-    def _score_pixels(self, hsv_pixels, bgr_pixels, ripeness=None):
-        """score_of() for pixels whose HSV values (or per-pixel ripeness) are known."""
+    def _score_pixels(self, hsv_pixels, bgr_pixels, ripeness=None, mean_bgr=False):
+        """score_of() for pixels whose HSV values (or per-pixel ripeness) are known; with
+        `mean_bgr`, the mean BGR colour (None when empty) in place of its hue angle, which a
+        caller that drops most candidates computes only for those it keeps."""
         if len(hsv_pixels) == 0:
-            return 0.0, float('nan'), float('nan')
+            return 0.0, float('nan'), None if mean_bgr else float('nan')
         if ripeness is None:
             ripeness = self.pixel_ripeness(hsv_pixels)
         score = float(ripeness.mean())
         mean = bgr_pixels.sum(axis=0, dtype=np.float64) / len(bgr_pixels)
         total = float(mean.sum())
         chroma = float(mean[2]) / total if total > 0 else 0.0
-        return min(max(score, 0.0), 1.0), chroma, lab_hue_angle(mean)
+        return min(max(score, 0.0), 1.0), chroma, mean if mean_bgr else lab_hue_angle(mean)
 
     def score_of(self, bgr_pixels):
         """(score, red chromaticity, Lab hue angle [deg]) of an Nx3 uint8 BGR skin sample

@@ -73,3 +73,18 @@ class Detection(object):
     def __repr__(self):
         return 'Detection(u=%.1f, v=%.1f, r=%.1f, score=%.2f, %s)' % (
             self.u, self.v, self.radius_px, self.score, STAGE_NAMES[self.stage])
+
+
+#: linear sRGB -> CIE XYZ (D65), rows X, Y, Z, divided by the D65 white point
+_RGB_TO_XYZ_WHITE = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722],
+                              [0.0193, 0.1192, 0.9505]]) / np.array([[0.95047], [1.0], [1.08883]])
+
+
+def lab_hue_angle(bgr):
+    """CIE Lab hue angle [deg] of one sRGB colour given as B, G, R in 0..255 (diagnostics;
+    computed here: OpenCV's Lab conversion sets up tables on its first call, ~0.1 s)."""
+    rgb = np.clip(np.asarray(bgr, dtype=np.float64)[::-1] / 255.0, 0.0, 1.0)
+    linear = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    t = _RGB_TO_XYZ_WHITE.dot(linear)
+    f = np.where(t > 0.008856, np.cbrt(t), 7.787 * t + 16.0 / 116.0)
+    return math.degrees(math.atan2(200.0 * (f[1] - f[2]), 500.0 * (f[0] - f[1])))

@@ -13,7 +13,7 @@ import cv2
 import numpy as np
 
 from vision_pkg.circle_fit import fit_part, hull_distance, outline_cover
-from vision_pkg.fruit import STAGE_THRESHOLDS, Detection
+from vision_pkg.fruit import STAGE_THRESHOLDS, Detection, lab_hue_angle
 
 
 class Frame(object):
@@ -292,10 +292,11 @@ class RegionSplitter(object):
                 # them fills the middle of a red fruit and graded it pink)
                 ripeness = self.pixel_ripeness(hsv_px)
                 good &= ripeness >= p['skin_min_ripeness']
-                score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good],
-                                                          ripeness[good])
+                score, chroma, mean_bgr = self._score_pixels(hsv_px[good], bgr_px[good],
+                                                             ripeness[good], mean_bgr=True)
             else:
-                score, chroma, angle = self._score_pixels(hsv_px[good], bgr_px[good])
+                score, chroma, mean_bgr = self._score_pixels(hsv_px[good], bgr_px[good],
+                                                             mean_bgr=True)
             min_fill = p['min_fill_green'] if strict or score < STAGE_THRESHOLDS[0] else \
                 p['min_fill']
             if inside < p['min_inside'] or fill < min_fill:
@@ -313,7 +314,8 @@ class RegionSplitter(object):
                 (cx + ox + 0.5) / scale - 0.5, (cy + oy + 0.5) / scale - 0.5, (r + 0.5) / scale,
                 score,
                 mask=crop.copy(), mask_origin=(x0 + ox, y0 + oy), mask_scale=scale,
-                fill=fill, area_px=area / (scale * scale), hue_angle=angle, chroma=chroma,
+                fill=fill, area_px=area / (scale * scale), chroma=chroma,
+                hue_angle=float('nan') if mean_bgr is None else lab_hue_angle(mean_bgr),
                 behind=index in in_front))
         return results
 
@@ -331,12 +333,15 @@ class RegionSplitter(object):
                  enumerate(zip(candidates, peak_rs))]
         serial = len(cands)
         verdicts = {}        # (serial i, serial j) -> (residual, union, fit) or None
+        grown = {}           # serial -> the part grown by a pixel (once per part, not per pair)
 
         def verdict(a, b):
             (xi, yi, ri), (xj, yj, rj) = a[1][:3], b[1][:3]
             if math.hypot(xi - xj, yi - yj) > 0.9 * (ri + rj):
                 return None       # two whole fruit side by side, not halves of one
-            if not np.any((cv2.dilate(a[0].astype(np.uint8), kernel) > 0) & b[0]):
+            if a[3] not in grown:
+                grown[a[3]] = cv2.dilate(a[0].view(np.uint8), kernel).view(bool)
+            if not np.any(grown[a[3]] & b[0]):
                 return None
             union = a[0] | b[0]
             fit = self._fit_part(union, outer, max(a[2], b[2]))
