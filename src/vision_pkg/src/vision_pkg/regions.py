@@ -166,10 +166,18 @@ class RegionSplitter(object):
         if len(peaks) == 1:
             owner = np.zeros(len(xs), dtype=np.int64)
         else:
-            c = np.array(peaks)
-            power = ((xs[:, None] - c[None, :, 0]) ** 2 + (ys[:, None] - c[None, :, 1]) ** 2
-                     - c[None, :, 2] ** 2)
-            owner = np.argmin(power, axis=1)
+            # the peak of least power distance, peak by peak (np.argmin's first minimum:
+            # a later peak takes a pixel only when strictly nearer)
+            owner = np.zeros(len(xs), dtype=np.int64)
+            best = None
+            for k, (px, py, pr) in enumerate(peaks):
+                power = (xs - px) ** 2 + (ys - py) ** 2 - pr ** 2
+                if best is None:
+                    best = power
+                else:
+                    nearer = power < best
+                    owner[nearer] = k
+                    np.minimum(best, power, out=best)
         parts = np.full(comp.shape, -1, dtype=np.int32)
         parts[ys, xs] = owner
         # outer boundary of the whole component (pixels with a background 4-neighbour)
