@@ -153,12 +153,11 @@ def hull_distance(hull, xs, ys):
     np.divide(-ab[:, 1], length, out=normal[0])
     np.divide(ab[:, 0], length, out=normal[1])
     offset = pts[:, 0] * normal[0] + pts[:, 1] * normal[1]
-    p = np.empty((len(xs), 2))
-    p[:, 0] = xs
-    p[:, 1] = ys
-    d = p.dot(normal)
-    d -= offset
-    return np.abs(d, out=d).min(axis=1)
+    # edges x points, so that the minimum runs across rows (vectorised over the points)
+    d = np.outer(normal[0], xs)
+    d += np.outer(normal[1], ys)
+    d -= offset[:, None]
+    return np.abs(d, out=d).min(axis=0)
 
 
 def fit_part(part, outer, peak_r, r_high=3.0):
