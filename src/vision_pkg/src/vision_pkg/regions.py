@@ -198,9 +198,14 @@ class RegionSplitter(object):
         # hypothesis A: one fruit per distance-transform peak (power-diagram parts)
         candidates = []          # (part mask, circle)
         peak_rs = []
+        # a part's pixel coordinates where they are known already (np.nonzero's row-major
+        # order): id(part) -> (part, rows, cols)
+        known = {}
         for k, (px, py, pr) in enumerate(peaks):
             part = (parts == k)
-            area = np.count_nonzero(part)
+            own = owner == k
+            known[id(part)] = (part, ys[own], xs[own])
+            area = len(known[id(part)][1])
             if area < math.pi * r_min * r_min * 0.3:
                 continue
             if strict and area > p['max_area_ratio'] * math.pi * pr * pr:
@@ -210,30 +215,34 @@ class RegionSplitter(object):
                 candidates.append((part, circle))
                 peak_rs.append(pr)
         if len(candidates) > 1 and not strict:
-            candidates = self._join_parts(candidates, peak_rs, outer)
+            candidates = self._join_parts(candidates, peak_rs, outer,
+                                          [known[id(c[0])][1:] for c in candidates])
         if len(peaks) > 1:
             # hypothesis B: one fruit seen in pieces (a leaf or stem in front of it) also has
             # several peaks; keep it whole when one circle explains its outline at least as
             # well as the parts explain theirs
-            whole = self._fit_part(comp > 0, outer, max(pk[2] for pk in peaks))
+            whole_part = comp > 0
+            whole = self._fit_part(whole_part, outer, max(pk[2] for pk in peaks))
             if whole is not None and whole[3] * whole[2] <= p['single_fit_residual_px']:
                 areas = [float(np.count_nonzero(c[0])) for c in candidates]
                 split = sum(a * c[1][3] for a, c in zip(areas, candidates)) / sum(areas) \
                     if candidates else 1.0
-                pys, pxs = np.nonzero(comp)
                 cx, cy, r = whole[:3]
                 if whole[3] <= split and _share(
-                        (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
-                    candidates = [(comp > 0, whole)]
+                        (xs - cx) ** 2 + (ys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
+                    candidates = [(whole_part, whole)]
+                    known[id(whole_part)] = (whole_part, ys, xs)
         results = []
         in_front = {}        # candidate index -> the part of the fruit in front of it
         for index, (part, circle) in enumerate(candidates):
-            area = np.count_nonzero(part)
+            entry = known.get(id(part))
+            pys, pxs = (entry[1], entry[2]) if entry is not None and entry[0] is part else \
+                np.nonzero(part)
+            area = len(pys)
             cx, cy, r = circle[:3]
             residual = circle[3] if len(circle) > 3 else 1.0
             if r < r_min or (r > r_max and strict):
                 continue
-            pys, pxs = np.nonzero(part)
             if not strict and (area < p['min_fill'] * math.pi * r * r or r > r_max):
                 # a circle far larger than the part: the gentle outline of two fruit, one in
                 # front of the other, in one part (one distance-transform peak between them)
@@ -327,18 +336,20 @@ class RegionSplitter(object):
                 behind=index in in_front))
         return results
 
-    def _join_parts(self, candidates, peak_rs, outer):
+    def _join_parts(self, candidates, peak_rs, outer, coords=None):
         """Hypothesis C: two neighbouring parts are one fruit (a leaf or calyx notch in its
         outline made two distance-transform peaks) when their circles overlap, one circle
         follows their joint outline within `join_residual_px` (median) and holds `min_inside`
         of their pixels. (Small parts fit their own short arcs almost exactly, so comparing
-        with the parts' fits, as hypothesis B does, would keep them apart.) Greedy, best first."""
+        with the parts' fits, as hypothesis B does, would keep them apart.) Greedy, best first.
+        coords: each part's (rows, cols), when known (the parts are disjoint)."""
         p = self.params
         kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         # each part gets a serial number; a pair's verdict does not change when another pair
         # is joined, so it is computed once (a cluster of n parts has n^2 / 2 pairs per round)
-        cands = [(part, circle, pr, k) for k, ((part, circle), pr) in
-                 enumerate(zip(candidates, peak_rs))]
+        # (part, circle, inscribed radius, serial, [(rows, cols) of its pieces] or None)
+        cands = [(part, circle, pr, k, None if coords is None else [coords[k]])
+                 for k, ((part, circle), pr) in enumerate(zip(candidates, peak_rs))]
         serial = len(cands)
         verdicts = {}        # (serial i, serial j) -> (residual, union, fit) or None
         grown = {}           # serial -> the part grown by a pixel (once per part, not per pair)
@@ -355,9 +366,17 @@ class RegionSplitter(object):
             fit = self._fit_part(union, outer, max(a[2], b[2]))
             if fit is None or fit[3] * fit[2] > p['join_residual_px']:
                 return None
-            pys, pxs = np.nonzero(union)
             cx, cy, r = fit[:3]
-            if _share((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2) < p['min_inside']:
+            if a[4] is None or b[4] is None:
+                pys, pxs = np.nonzero(union)
+                share = _share((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2)
+            else:
+                # the union's pixels are the disjoint parts' pixels: count piece by piece
+                pieces = a[4] + b[4]
+                share = float(sum(np.count_nonzero((pxs - cx) ** 2 + (pys - cy) ** 2 <=
+                                                   (r + 1.5) ** 2) for pys, pxs in pieces)) / \
+                    sum(len(pys) for pys, _ in pieces)
+            if share < p['min_inside']:
                 return None
             return fit[3], union, fit
 
@@ -374,7 +393,9 @@ class RegionSplitter(object):
             if best is None:
                 break
             _, i, j, union, fit = best
-            joined = (union, fit, max(cands[i][2], cands[j][2]), serial)
+            joined = (union, fit, max(cands[i][2], cands[j][2]), serial,
+                      None if cands[i][4] is None or cands[j][4] is None else
+                      cands[i][4] + cands[j][4])
             serial += 1
             cands = [c for k, c in enumerate(cands) if k not in (i, j)] + [joined]
         return [(c[0], c[1]) for c in cands]
