@@ -137,26 +137,27 @@ def hull_distance(hull, xs, ys):
     Inside a convex polygon the nearest boundary point lies on the edge whose line is nearest,
     so the distance is the smallest distance to the edges' lines (no segment clipping)."""
     pts = hull.reshape(-1, 2).astype(np.float64)
-    # edge vectors to the next vertex, the last one closing the polygon (np.roll's result
-    # without its cost, which dominated this function on hulls of a few dozen vertices)
+    # edge vectors to the next vertex, the last one closing the polygon
     ab = np.empty_like(pts)
     np.subtract(pts[1:], pts[:-1], out=ab[:-1])
     np.subtract(pts[0], pts[-1], out=ab[-1])
-    length = np.sqrt((ab * ab).sum(1))
+    length = np.sqrt(ab[:, 0] * ab[:, 0] + ab[:, 1] * ab[:, 1])
     if not length.min() > 1e-9:
         keep = length > 1e-9
         if not keep.any():
             return np.hypot(xs - pts[0, 0], ys - pts[0, 1])
         pts, ab, length = pts[keep], ab[keep], length[keep]
-    # |cross(ab, p - a)| / |ab| for every point and edge: (n x 2) . (2 x m) minus a constant
-    normal = np.empty((2, len(ab)))
-    np.divide(-ab[:, 1], length, out=normal[0])
-    np.divide(ab[:, 0], length, out=normal[1])
-    offset = pts[:, 0] * normal[0] + pts[:, 1] * normal[1]
-    # edges x points, so that the minimum runs across rows (vectorised over the points)
-    d = np.outer(normal[0], xs)
-    d += np.outer(normal[1], ys)
-    d -= offset[:, None]
+    # |cross(ab, p - a)| / |ab| for every edge and point, as one product of the edges' lines
+    # (unit normal, minus offset) with the points in homogeneous coordinates
+    lines = np.empty((len(ab), 3))
+    np.divide(-ab[:, 1], length, out=lines[:, 0])
+    np.divide(ab[:, 0], length, out=lines[:, 1])
+    lines[:, 2] = -(pts[:, 0] * lines[:, 0] + pts[:, 1] * lines[:, 1])
+    points = np.empty((3, len(xs)))
+    points[0] = xs
+    points[1] = ys
+    points[2] = 1.0
+    d = lines.dot(points)
     return np.abs(d, out=d).min(axis=0)
 
 
