@@ -54,6 +54,7 @@ def count_support(circle, xs, ys, tol=1.0, rel=0.03):
 
 
 _TRIPLES = {}
+_TRIPLE_INDEX = {}
 
 
 def _triples(seed, trials):
@@ -62,6 +63,19 @@ def _triples(seed, trials):
     if key not in _TRIPLES:
         _TRIPLES[key] = np.random.default_rng(seed).random((trials, 3))
     return _TRIPLES[key]
+
+
+def _triple_index(seed, trials, n):
+    """The point triples of _triples(seed, trials) as indices into n points (kept per n:
+    outlines of the same length recur)."""
+    key = (seed, trials, n)
+    idx = _TRIPLE_INDEX.get(key)
+    if idx is None:
+        if len(_TRIPLE_INDEX) >= 4096:
+            _TRIPLE_INDEX.clear()
+        idx = np.minimum((_triples(seed, trials) * n).astype(np.int64), n - 1)
+        _TRIPLE_INDEX[key] = idx
+    return idx
 
 
 def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
@@ -75,7 +89,7 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     n = len(xs)
     if n < 8:
         return None
-    idx = np.minimum((_triples(seed, trials) * n).astype(np.int64), n - 1)
+    idx = _triple_index(seed, trials, n)
     px, py = xs[idx], ys[idx]                   # trials x 3
     (x1, x2, x3), (y1, y2, y3) = px.T, py.T
     d = 2.0 * (x1 * (y2 - y3) + x2 * (y3 - y1) + x3 * (y1 - y2))
@@ -182,11 +196,16 @@ def fit_part(part, outer, peak_r, r_high=3.0):
 def _fit_crop(part8, outer, peak_r, r_high):
     """fit_part() on a crop: part as 0/1 uint8."""
     ys, xs = np.nonzero(outer & part8.view(bool))      # part8 holds 0 and 1 only
-    moments = cv2.moments(part8, True)
-    if moments['m00'] <= 0:
+    # area and centroid (cv2.moments' m00, m10, m01: exact integers either way) from the
+    # column and row counts, cheaper than every moment up to the third order
+    cols = part8.sum(axis=0, dtype=np.int64)
+    m00 = float(cols.sum())
+    if m00 <= 0:
         return None
-    mx, my = moments['m10'] / moments['m00'], moments['m01'] / moments['m00']
-    fallback = (mx, my, max(peak_r, math.sqrt(moments['m00'] / math.pi)), 1.0)
+    rows = part8.sum(axis=1, dtype=np.int64)
+    mx = float(cols.dot(np.arange(len(cols)))) / m00
+    my = float(rows.dot(np.arange(len(rows)))) / m00
+    fallback = (mx, my, max(peak_r, math.sqrt(m00 / math.pi)), 1.0)
     if len(xs) < 8:
         return fallback
     # the hull of a region is the hull of its outline
