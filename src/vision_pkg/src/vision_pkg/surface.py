@@ -48,11 +48,12 @@ class RoundSurface(object):
     def edge_profile(self, frame, cx, cy, r, samples=48):
         """Strongest radial edge (relative gradient) within +-2 px of each of `samples` points
         of a circle (working pixels); NaN where the circle leaves the image."""
-        height, width = frame.gx.shape
+        height, width = frame.gray.shape
         a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
         ca, sa = np.cos(a), np.sin(a)
         best = np.zeros(samples, dtype=np.float32)
         inside = np.zeros(samples, dtype=bool)
+        points = []
         for dr in (-2.0, -1.0, 0.0, 1.0, 2.0):
             xs = np.rint(cx + (r + dr) * ca).astype(np.int64)
             ys = np.rint(cy + (r + dr) * sa).astype(np.int64)
@@ -60,14 +61,21 @@ class RoundSurface(object):
             inside |= ok
             xs = np.minimum(np.maximum(xs, 0), width - 1)
             ys = np.minimum(np.maximum(ys, 0), height - 1)
-            radial = np.abs(frame.gx[ys, xs] * ca + frame.gy[ys, xs] * sa)
+            points.append((xs, ys, ok))
+        # the gradients of the window the samples lie in, not of the whole image
+        x0 = min(int(p[0].min()) for p in points)
+        y0 = min(int(p[1].min()) for p in points)
+        gx, gy = frame.gradients(x0, y0, max(int(p[0].max()) for p in points) + 1,
+                                 max(int(p[1].max()) for p in points) + 1)
+        for xs, ys, ok in points:
+            radial = np.abs(gx[ys - y0, xs - x0] * ca + gy[ys - y0, xs - x0] * sa)
             best = np.maximum(best, np.where(ok, radial, 0.0))
         return np.where(inside, best, np.nan)
 
     def edge_support(self, frame, cx, cy, r, samples=48):
         """Fraction of a circle (working pixels) along which the brightness has a radial edge
         of at least `edge_min` (relative gradient), within +-2 px of the circle."""
-        if frame.gx is None:
+        if frame.gray is None:
             return 1.0
         best = self.edge_profile(frame, cx, cy, r, samples)
         best = best[np.isfinite(best)]

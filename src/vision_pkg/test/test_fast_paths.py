@@ -1,0 +1,114 @@
+"""The detector's fast paths give exactly what their plain numpy/OpenCV forms give (they were
+written for speed; bench_detection's figures must not move with them)."""
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from vision_pkg import circle_fit
+from vision_pkg.detection import TomatoDetector
+from vision_pkg.regions import Frame, _share
+
+
+def _hull_distance_plain(hull, xs, ys):
+    """Distance of each point to the nearest edge line of the polygon, edge by edge."""
+    pts = hull.reshape(-1, 2).astype(np.float64)
+    best = np.full(len(xs), np.inf)
+    for a, b in zip(pts, np.roll(pts, -1, axis=0)):
+        ab = b - a
+        length = math.hypot(*ab)
+        if length <= 1e-9:
+            continue
+        cross = ab[0] * (ys - a[1]) - ab[1] * (xs - a[0])
+        best = np.minimum(best, np.abs(cross) / length)
+    return best
+
+
+@pytest.mark.parametrize('seed', range(5))
+def test_hull_distance_matches_the_edge_by_edge_distance(seed):
+    rng = np.random.default_rng(seed)
+    blob = np.zeros((120, 140), np.uint8)
+    for _ in range(4):
+        cv2.circle(blob, tuple(int(c) for c in rng.integers(30, 100, 2)),
+                   int(rng.integers(10, 30)), 1, -1)
+    contours = cv2.findContours(blob, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)[-2]
+    hull = cv2.convexHull(np.vstack(contours))
+    ys, xs = np.nonzero(blob)
+    fast = circle_fit.hull_distance(hull, xs, ys)
+    assert np.allclose(fast, _hull_distance_plain(hull, xs, ys), rtol=0.0, atol=1e-9)
+    # and the outline test the fit uses picks the same pixels
+    assert np.array_equal(fast <= 1.5, _hull_distance_plain(hull, xs, ys) <= 1.5)
+
+
+def test_median_is_numpys_median_for_odd_and_even_lengths():
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 3, 10, 11, 128, 129):
+        values = rng.random(n)
+        assert circle_fit._median(values) == float(np.median(values))
+
+
+def test_share_is_the_mean_of_a_boolean_array():
+    flags = np.random.default_rng(4).random(1001) < 0.3
+    assert _share(flags) == float(np.mean(flags))
+    assert math.isnan(_share(np.zeros(0, bool)))
+
+
+def test_triple_index_is_the_scaled_triples():
+    for n in (8, 57, 300):
+        expected = np.minimum((circle_fit._triples(0, 60) * n).astype(np.int64), n - 1)
+        assert np.array_equal(circle_fit._triple_index(0, 60, n), expected)
+
+
+def test_a_parts_centroid_is_cv2_moments_one():
+    part = np.zeros((90, 70), np.uint8)
+    cv2.ellipse(part, (33, 41), (25, 17), 30.0, 0.0, 360.0, 1, -1)
+    outer = part.astype(bool) & (cv2.erode(part, np.ones((3, 3), np.uint8)) == 0)
+    moments = cv2.moments(part, True)
+    mx, my = moments['m10'] / moments['m00'], moments['m01'] / moments['m00']
+    # a fit that falls back (outline of fewer than 8 pixels) returns the centroid itself
+    few = np.zeros_like(outer)
+    ys, xs = np.nonzero(outer)
+    few[ys[:5], xs[:5]] = True
+    fallback = circle_fit._fit_crop(part, few, 10.0, 3.0)
+    assert fallback[:2] == (mx, my)
+    assert fallback[2] == max(10.0, math.sqrt(moments['m00'] / math.pi))
+
+
+def test_window_gradients_equal_the_whole_images_maps():
+    rng = np.random.default_rng(5)
+    gray = cv2.GaussianBlur(rng.integers(0, 256, (150, 210), dtype=np.uint8), (5, 5), 1.5)
+    gx, gy = TomatoDetector.gradient_maps(gray)
+    frame = Frame(None, None, 1.0)
+    frame.gray, frame.gradient_maps = gray, TomatoDetector.gradient_maps
+    for x0, y0, x1, y1 in ((0, 0, 40, 30), (100, 60, 160, 130), (170, 120, 210, 150),
+                           (-5, 20, 30, 200), (2, 1, 3, 2)):
+        wx, wy = frame.gradients(x0, y0, x1, y1)
+        cx0, cy0 = max(x0, 0), max(y0, 0)
+        assert np.array_equal(wx, gx[cy0:y1, cx0:x1])
+        assert np.array_equal(wy, gy[cy0:y1, cx0:x1])
+
+
+def test_white_gains_per_channel_test_matches_the_chromaticity_box():
+    """The reference candidates of white_gains, tested channel by channel, are the pixels
+    whose chromaticity lies in the box (the form it had before)."""
+    det = TomatoDetector()
+    p = det.params
+    rng = np.random.default_rng(6)
+    image = rng.integers(0, 256, (200, 240, 3), dtype=np.uint8)
+    image[:60, :80] = (200, 205, 210)       # a pale, nearly neutral patch: a white reference
+    pix = image[::4, ::4].reshape(-1, 3)
+    total = pix.astype(np.int32).sum(axis=1)
+    chroma = pix.astype(np.float32) / np.maximum(total, 1)[:, None].astype(np.float32)
+    top = pix.max(axis=1)
+    cand = (top < 250) & (top > 60) & \
+        (np.abs(chroma - 1.0 / 3.0).max(axis=1) <= float(p['wb_chroma_box'])) & \
+        (chroma[:, 1] <= float(p['wb_max_green']))
+    count = int(cand.sum())
+    assert count >= max(20, float(p['wb_min_fraction']) * len(pix))
+    k = min(max(int(count * float(p['wb_top_fraction'])), 20), count)
+    ref = pix[cand][np.argpartition(total[cand], count - k)[-k:]].astype(np.float64).mean(axis=0)
+    gains = (ref.sum() / 3.0) / np.maximum(ref, 1.0)
+    gains /= gains.mean()
+    bound = float(p['wb_max_gain'])
+    assert np.array_equal(det.white_gains(image), np.clip(gains, 1.0 / bound, bound))
