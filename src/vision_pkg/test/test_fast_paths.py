@@ -112,3 +112,14 @@ def test_white_gains_per_channel_test_matches_the_chromaticity_box():
     gains /= gains.mean()
     bound = float(p['wb_max_gain'])
     assert np.array_equal(det.white_gains(image), np.clip(gains, 1.0 / bound, bound))
+
+
+def test_skin_mean_colour_is_numpys_mean():
+    """_score_pixels' mean BGR (OpenCV's channel sums) equals numpy's float64 mean."""
+    det = TomatoDetector()
+    rng = np.random.default_rng(7)
+    for n in (1, 37, 4000):
+        bgr = rng.integers(0, 256, (n, 3), dtype=np.uint8)
+        hsv = cv2.cvtColor(bgr.reshape(-1, 1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3)
+        mean = det._score_pixels(hsv, bgr, mean_bgr=True)[2]
+        assert np.array_equal(mean, bgr.sum(axis=0, dtype=np.float64) / n)

@@ -310,7 +310,10 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         if ripeness is None:
             ripeness = self.pixel_ripeness(hsv_pixels)
         score = float(ripeness.mean())
-        mean = bgr_pixels.sum(axis=0, dtype=np.float64) / len(bgr_pixels)
+        # channel sums of uint8 values are exact in double whatever the order: OpenCV's sum,
+        # many times faster than numpy's cast-and-reduce along a 3-wide axis
+        mean = np.array(cv2.sumElems(np.ascontiguousarray(bgr_pixels).reshape(-1, 1, 3))[:3]) / \
+            len(bgr_pixels)
         total = float(mean.sum())
         chroma = float(mean[2]) / total if total > 0 else 0.0
         return min(max(score, 0.0), 1.0), chroma, mean if mean_bgr else lab_hue_angle(mean)
