@@ -194,6 +194,11 @@ def test_fresh_since_takes_the_later_of_arrival_and_request():
     # further ahead than max_lead: clocks apart, not a lag; from the arrival, flagged
     assert goals.fresh_since(arrival, genpy.Time(103, 0), lead) == (arrival, True)
     assert goals.fresh_since(arrival, genpy.Time(102, 0), lead) == (genpy.Time(102, 0), False)
+    # simulated time: a /clock lagging 3.4 s (seen under a 1-core CPU quota) is a lag, not skew
+    sim_lead = genpy.Duration(goals.SIM_MAX_REQUEST_LEAD)
+    assert goals.fresh_since(arrival, genpy.Time(103, 400000000), sim_lead) == (
+        genpy.Time(103, 400000000), False)
+    assert goals.fresh_since(arrival, genpy.Time(131, 0), sim_lead) == (arrival, True)
 
 
 def test_node_module_keeps_its_names():

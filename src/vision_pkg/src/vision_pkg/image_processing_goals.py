@@ -25,6 +25,11 @@ class Cancelled(Exception):
     """The client cancelled the goal."""
 
 
+#: s: in simulated time (one /clock for every node) a goal's request stamp ahead of this node's
+#: clock is its clock lagging; only a lead beyond this is taken for another time base
+SIM_MAX_REQUEST_LEAD = 30.0
+
+
 def fresh_since(arrival, requested, max_lead):
     """(time, skewed): data for a goal count as fresh from this stamp on. That is the goal's
     request stamp (actionlib's goal_id.stamp: the client's clock when it sent the goal) when it
