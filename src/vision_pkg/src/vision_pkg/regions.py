@@ -209,27 +209,25 @@ class RegionSplitter(object):
             h, w = comp.shape
             outer &= frame.fill[oy:oy + h, ox:ox + w] == 0
         # hypothesis A: one fruit per distance-transform peak (power-diagram parts)
-        candidates = []          # (part mask, circle)
+        # (part mask, circle, its pixels' (rows, cols) in np.nonzero's order, or None where
+        # not known)
+        candidates = []
         peak_rs = []
-        # a part's pixel coordinates where they are known already (np.nonzero's row-major
-        # order): id(part) -> (part, rows, cols)
-        known = {}
         for k, (px, py, pr) in enumerate(peaks):
             part = (parts == k)
             own = owner == k
-            known[id(part)] = (part, ys[own], xs[own])
-            area = len(known[id(part)][1])
+            coords = (ys[own], xs[own])
+            area = len(coords[0])
             if area < math.pi * r_min * r_min * 0.3:
                 continue
             if strict and area > p['max_area_ratio'] * math.pi * pr * pr:
                 continue      # far larger than its inscribed circle: a leaf or canopy strip
             circle = self._fit_part(part, outer, pr)
             if circle is not None:
-                candidates.append((part, circle))
+                candidates.append((part, circle, coords))
                 peak_rs.append(pr)
         if len(candidates) > 1 and not strict:
-            candidates = self._join_parts(candidates, peak_rs, outer,
-                                          [known[id(c[0])][1:] for c in candidates])
+            candidates = self._join_parts(candidates, peak_rs, outer)
         if len(peaks) > 1:
             # hypothesis B: one fruit seen in pieces (a leaf or stem in front of it) also has
             # several peaks; keep it whole when one circle explains its outline at least as
@@ -243,14 +241,11 @@ class RegionSplitter(object):
                 cx, cy, r = whole[:3]
                 if whole[3] <= split and _share(
                         (xs - cx) ** 2 + (ys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
-                    candidates = [(whole_part, whole)]
-                    known[id(whole_part)] = (whole_part, ys, xs)
+                    candidates = [(whole_part, whole, (ys, xs))]
         results = []
         in_front = {}        # candidate index -> the part of the fruit in front of it
-        for index, (part, circle) in enumerate(candidates):
-            entry = known.get(id(part))
-            pys, pxs = (entry[1], entry[2]) if entry is not None and entry[0] is part else \
-                np.nonzero(part)
+        for index, (part, circle, coords) in enumerate(candidates):
+            pys, pxs = coords if coords is not None else np.nonzero(part)
             area = len(pys)
             cx, cy, r = circle[:3]
             residual = circle[3] if len(circle) > 3 else 1.0
@@ -282,7 +277,7 @@ class RegionSplitter(object):
                     rest_circle = self._fit_part(rest > 0, outer, float(
                         cv2.distanceTransform(rest, cv2.DIST_L2, 5).max()))
                     if rest_circle is not None:
-                        candidates.append((rest > 0, rest_circle))
+                        candidates.append((rest > 0, rest_circle, None))
                         in_front[len(candidates) - 1] = part & ~(rest > 0)
                 part = part.copy()
                 part[pys[~inside], pxs[~inside]] = False
@@ -349,20 +344,21 @@ class RegionSplitter(object):
                 behind=index in in_front))
         return results
 
-    def _join_parts(self, candidates, peak_rs, outer, coords=None):
+    def _join_parts(self, candidates, peak_rs, outer):
         """Hypothesis C: two neighbouring parts are one fruit (a leaf or calyx notch in its
         outline made two distance-transform peaks) when their circles overlap, one circle
         follows their joint outline within `join_residual_px` (median) and holds `min_inside`
         of their pixels. (Small parts fit their own short arcs almost exactly, so comparing
         with the parts' fits, as hypothesis B does, would keep them apart.) Greedy, best first.
-        coords: each part's (rows, cols), when known (the parts are disjoint)."""
+        candidates: (part, circle, (rows, cols) of its pixels), disjoint parts. A joined part
+        comes back with None for its pixels (they are not in np.nonzero's order)."""
         p = self.params
         kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
         # each part gets a serial number; a pair's verdict does not change when another pair
         # is joined, so it is computed once (a cluster of n parts has n^2 / 2 pairs per round)
         # (part, circle, inscribed radius, serial, [(rows, cols) of its pieces] or None)
-        cands = [(part, circle, pr, k, None if coords is None else [coords[k]])
-                 for k, ((part, circle), pr) in enumerate(zip(candidates, peak_rs))]
+        cands = [(part, circle, pr, k, [coords])
+                 for k, ((part, circle, coords), pr) in enumerate(zip(candidates, peak_rs))]
         serial = len(cands)
         verdicts = {}        # (serial i, serial j) -> (residual, union, fit) or None
         grown = {}           # serial -> the part grown by a pixel (once per part, not per pair)
@@ -380,15 +376,11 @@ class RegionSplitter(object):
             if fit is None or fit[3] * fit[2] > p['join_residual_px']:
                 return None
             cx, cy, r = fit[:3]
-            if a[4] is None or b[4] is None:
-                pys, pxs = np.nonzero(union)
-                share = _share((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2)
-            else:
-                # the union's pixels are the disjoint parts' pixels: count piece by piece
-                pieces = a[4] + b[4]
-                share = float(sum(np.count_nonzero((pxs - cx) ** 2 + (pys - cy) ** 2 <=
-                                                   (r + 1.5) ** 2) for pys, pxs in pieces)) / \
-                    sum(len(pys) for pys, _ in pieces)
+            # the union's pixels are the disjoint parts' pixels: counted piece by piece
+            pieces = a[4] + b[4]
+            share = float(sum(np.count_nonzero((pxs - cx) ** 2 + (pys - cy) ** 2 <=
+                                               (r + 1.5) ** 2) for pys, pxs in pieces)) / \
+                sum(len(pys) for pys, _ in pieces)
             if share < p['min_inside']:
                 return None
             return fit[3], union, fit
@@ -407,11 +399,10 @@ class RegionSplitter(object):
                 break
             _, i, j, union, fit = best
             joined = (union, fit, max(cands[i][2], cands[j][2]), serial,
-                      None if cands[i][4] is None or cands[j][4] is None else
                       cands[i][4] + cands[j][4])
             serial += 1
             cands = [c for k, c in enumerate(cands) if k not in (i, j)] + [joined]
-        return [(c[0], c[1]) for c in cands]
+        return [(c[0], c[1], c[4][0] if len(c[4]) == 1 else None) for c in cands]
 
     #: circle of a part's outline (vision_pkg.circle_fit.fit_part)
     _fit_part = staticmethod(fit_part)
