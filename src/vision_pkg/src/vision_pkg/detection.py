@@ -369,7 +369,6 @@ class TomatoDetector(RegionSplitter, RoundSurface):
                 factor, small2, hsv2, ripe2, green2 = 1.0, small, hsv, ripe, green
             frame2 = Frame(small2, hsv2, scale * factor)
             frame2.gray = cv2.cvtColor(small2, cv2.COLOR_BGR2GRAY)
-            frame2.gradient_maps = self.gradient_maps
             both = cv2.bitwise_or(ripe2, green2)
             # the visible parts of the fruit found in pass 1 are taken out first: a turning
             # fruit touching a red one would otherwise join it in one region, often with one

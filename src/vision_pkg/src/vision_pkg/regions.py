@@ -14,17 +14,18 @@ import numpy as np
 
 from vision_pkg.circle_fit import fit_part, hull_distance, outline_cover
 from vision_pkg.fruit import STAGE_THRESHOLDS, Detection, lab_hue_angle
+from vision_pkg.surface import RoundSurface
 
 
 class Frame(object):
     """The working images of one detect() call. `gray` (set for the strict pass) gives the
     brightness gradients of the windows that the outline tests look at (`gradients`)."""
 
-    __slots__ = ('small', 'hsv', 'scale', 'fill', 'gray', 'gradient_maps')
+    __slots__ = ('small', 'hsv', 'scale', 'fill', 'gray')
 
     def __init__(self, small, hsv, scale):
         self.small, self.hsv, self.scale = small, hsv, scale
-        self.fill = self.gray = self.gradient_maps = None
+        self.fill = self.gray = None
 
     def gradients(self, x0, y0, x1, y1):
         """(gx, gy) of the window [y0:y1, x0:x1] of `gray` (clipped to the image), computed
@@ -34,7 +35,7 @@ class Frame(object):
         x0, y0, x1, y1 = max(x0, 0), max(y0, 0), min(x1, width), min(y1, height)
         gx0, gy0 = max(x0 - 3, 0), max(y0 - 3, 0)
         gx1, gy1 = min(x1 + 3, width), min(y1 + 3, height)
-        gx, gy = self.gradient_maps(np.ascontiguousarray(self.gray[gy0:gy1, gx0:gx1]))
+        gx, gy = RoundSurface.gradient_maps(np.ascontiguousarray(self.gray[gy0:gy1, gx0:gx1]))
         rows, cols = slice(y0 - gy0, y1 - gy0), slice(x0 - gx0, x1 - gx0)
         return gx[rows, cols], gy[rows, cols]
 
