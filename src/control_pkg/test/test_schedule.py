@@ -363,6 +363,46 @@ def test_no_standby_where_the_suction_arms_way_to_the_next_target_meets_it(geome
     assert c.recorder.totals()['overlaps']['STANDBY'] == {'overlapped': 0, 'sequential': 1}
 
 
+def test_where_only_the_way_to_the_box_meets_it_the_suction_arm_leaves_first(geometry):
+    # the arms after the cut of three_targets' first fruit at its second point (joints of a
+    # pipelined mission): the cutting hand's way to its standby by the next fruit comes 29 mm
+    # close to the suction arm's way to the box, but not to its way on from the box
+    held, cut = (0.052, 0.64, 1.848), (0.089, -2.046, 2.366)
+    suction, standby = (0.032, 0.292, 1.829), (0.081, -2.37, 2.167)
+    at_once = m.schedule_step(geometry, {'left': cut, 'right': held},
+                              {'left': standby, 'right': BOX_RIGHT}, 0.01)
+    assert not at_once.clear
+    c = _Context(geometry, cut, held)
+    cb = _callbacks(c)
+    ud = _Ud(targets=[_Target(7)], next_goal=list(suction), standby_goal=list(standby))
+    assert cb.place_step(ud) == 'box_first'
+    # the cutting hand goes to that standby after all: the next target finds it waiting
+    assert c.standby == (7, tuple(standby))
+    totals = c.recorder.totals()['overlaps']
+    assert totals['STANDBY'] == {'overlapped': 0, 'sequential': 1}
+    assert totals['BOX_FIRST'] == {'overlapped': 1, 'sequential': 0}
+    # each of its two steps is clear: the suction arm to the box beside the resting hand, then
+    # both arms on at once
+    assert m.schedule_step(geometry, {'left': cut, 'right': held},
+                           {'left': None, 'right': BOX_RIGHT}, 0.01).clear
+    assert m.schedule_step(geometry, {'left': cut, 'right': BOX_RIGHT},
+                           {'left': standby, 'right': suction}, 0.01).clear
+
+
+def test_no_box_first_where_the_way_on_from_the_box_meets_the_hand(geometry):
+    held, cut, _, _ = _after_a_cut(geometry)
+    # the standby right on the next fruit's suction point: in the way of both legs' ends
+    suction = geometry.inverse('right', (0.5, 0.0, 1.0), standoff=0.035, current=BOX_RIGHT).joints
+    in_the_way = geometry.inverse('left', (0.5, 0.0, 1.0), standoff=0.0,
+                                  other_arm_joints=HOME_LEFT).joints
+    c = _Context(geometry, cut, held)
+    cb = _callbacks(c)
+    ud = _Ud(targets=[_Target(7)], next_goal=list(suction), standby_goal=list(in_the_way))
+    assert cb.place_step(ud) in ('overlap', 'sequential')
+    assert c.standby is None
+    assert 'BOX_FIRST' not in c.recorder.totals()['overlaps']
+
+
 def test_a_plan_for_the_next_target_starts_empty_and_none_means_home(geometry):
     held, cut, suction, standby = _after_a_cut(geometry)
     c = _Context(geometry, cut, held)

@@ -30,6 +30,11 @@ PICK_TARGET (StateMachine)
                               DO_MOVE_ROBOT (left arm to its standby by the next target)
                               TO_BOX: DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
                                       -> DO_MOVE_ROBOT_NEXT (the next target's suction pose)
+                          | PLACE_THEN_PARK          only the way to the box meets the left arm's
+                              DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
+                              -> PARK_AND_NEXT (Concurrence)
+                                   DO_MOVE_ROBOT (left arm from the cut to its standby)
+                                   DO_MOVE_ROBOT_NEXT (the next target's suction pose)
                           | PLACE_AND_RETURN (Concurrence)
                               DO_MOVE_ROBOT (left arm home)
                               TO_BOX: DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
@@ -239,21 +244,25 @@ class PipelinedGraph(_Graph):
                                 input_keys=['targets'])
         sm.userdata.next_goal = []
         sm.userdata.standby_goal = []
-        steps = ['standby', 'overlap', 'sequential'] if self.standby else ['overlap', 'sequential']
+        steps = ['standby', 'box_first', 'overlap', 'sequential'] if self.standby else \
+            ['overlap', 'sequential']
         with sm:
             if self.standby:
                 add('PLAN_NEXT', self.plan_next(), transitions={'succeeded': 'CHECK_PLACE'})
             add('CHECK_PLACE', Decide(cb.place_step, steps,
                                       input_keys=['targets', 'next_goal', 'standby_goal']),
                 transitions=dict((step, state) for step, state in (
-                    ('standby', 'PLACE_AND_PARK'), ('overlap', 'PLACE_AND_RETURN'),
-                    ('sequential', 'DO_MOVE_ROBOT')) if step in steps))
+                    ('standby', 'PLACE_AND_PARK'), ('box_first', 'PLACE_THEN_PARK'),
+                    ('overlap', 'PLACE_AND_RETURN'), ('sequential', 'DO_MOVE_ROBOT'))
+                    if step in steps))
             if self.standby:
                 # the box goes first when the moves take turns, as below
                 add('PLACE_AND_PARK', _overlap(
                     [('DO_MOVE_ROBOT', self.move_to(ARM_LEFT, 'standby_goal')),
                      ('TO_BOX', self.to_box(next_key='next_goal'))],
                     self.gate, 'right', input_keys=['targets', 'next_goal', 'standby_goal']),
+                    transitions={'succeeded': 'succeeded'})
+                add('PLACE_THEN_PARK', self.place_then_park(),
                     transitions={'succeeded': 'succeeded'})
             # taking turns, the box goes first: the suction valve then closes beside the left
             # arm's return
@@ -269,6 +278,26 @@ class PipelinedGraph(_Graph):
                                                      self.cfg['collection_box_right']),
                 transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
             add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF))
+        return sm
+
+    def place_then_park(self):
+        """DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off) -> PARK_AND_NEXT (Concurrence:
+        the cutting hand from the cut to its standby by the next target, the suction arm from the
+        box to that target's suction pose): where the two arms' ways out of the cut would meet,
+        the suction arm leaves first and the cutting hand waits at the cut until it is away,
+        instead of going home and back."""
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
+                                input_keys=['next_goal', 'standby_goal'])
+        with sm:
+            add('DO_MOVE_ROBOT_BOX', self.move_fixed('DO_MOVE_ROBOT', ARM_RIGHT,
+                                                     self.cfg['collection_box_right']),
+                transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
+            add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF),
+                transitions={'succeeded': 'PARK_AND_NEXT'})
+            add('PARK_AND_NEXT', _overlap(
+                [('DO_MOVE_ROBOT', self.move_to(ARM_LEFT, 'standby_goal')),
+                 ('DO_MOVE_ROBOT_NEXT', self.move_to(ARM_RIGHT, 'next_goal'))],
+                self.gate, 'right', input_keys=['next_goal', 'standby_goal']))
         return sm
 
     def plan_next(self):
@@ -460,21 +489,39 @@ class _PipelinedCallbacks(_Callbacks):
         the left arm's whole way); else PLACE as before, the left arm home."""
         if ud.standby_goal and ud.next_goal:
             c = self.context
-            left = c.arm_joints('left')
+            left, right = c.arm_joints('left'), c.arm_joints('right')
+            standby = {'left': ud.standby_goal}
             # to the box, then from the box to the next suction pose: each leg against the
             # left arm's whole way to its standby
-            legs = [({'left': left, 'right': c.arm_joints('right')}, self.box_right),
-                    ({'left': left, 'right': self.box_right}, ud.next_goal)]
-            verdicts = (self._verdict(starts, {'left': ud.standby_goal, 'right': right})
-                        for starts, right in legs)
-            blocked = next((v for v in verdicts if not v.clear), None)
-            c.recorder.note_step('STANDBY', blocked is None)
-            if blocked is None:
+            to_box = self._verdict({'left': left, 'right': right},
+                                   dict(standby, right=self.box_right))
+            on_next = None
+            if to_box.clear:
+                on_next = self._verdict({'left': left, 'right': self.box_right},
+                                        dict(standby, right=ud.next_goal))
+            clear = on_next is not None and on_next.clear
+            c.recorder.note_step('STANDBY', clear)
+            if clear:
                 c.standby = (ud.targets[0].id, tuple(ud.standby_goal))
                 c.recorder.note_step('PLACE', True)
                 rospy.loginfo('executive: PLACE overlapped, the cutting hand waits by the next '
                               'target')
                 return 'standby'
+            blocked = to_box if on_next is None else on_next
+            if on_next is None:
+                # only the first leg meets the left arm's way: the suction arm goes to the box
+                # while the cutting hand stays at the cut, then both go on at once
+                still = self._verdict({'left': left, 'right': right},
+                                      {'left': None, 'right': self.box_right})
+                on_next = self._verdict({'left': left, 'right': self.box_right},
+                                        dict(standby, right=ud.next_goal))
+                c.recorder.note_step('BOX_FIRST', still.clear and on_next.clear)
+                if still.clear and on_next.clear:
+                    c.standby = (ud.targets[0].id, tuple(ud.standby_goal))
+                    rospy.loginfo('executive: no standby beside the way to the box (%s): the '
+                                  'suction arm goes to the box first, then the cutting hand '
+                                  'to its standby by the next target', blocked.why)
+                    return 'box_first'
             rospy.loginfo('executive: no standby by the next target (%s); left arm home',
                           blocked.why)
         return self._step('PLACE', {'left': self.home_left, 'right': self.box_right})
