@@ -31,7 +31,7 @@ PICK_TARGET (StateMachine)
                               TO_BOX: DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
                                       -> DO_MOVE_ROBOT_NEXT (the next target's suction pose)
                           | PLACE_THEN_PARK          only the way to the box meets the left arm's
-                              DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
+                              TO_BOX: DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off)
                               -> PARK_AND_NEXT (Concurrence)
                                    DO_MOVE_ROBOT (left arm from the cut to its standby)
                                    DO_MOVE_ROBOT_NEXT (the next target's suction pose)
@@ -281,19 +281,15 @@ class PipelinedGraph(_Graph):
         return sm
 
     def place_then_park(self):
-        """DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR (suction off) -> PARK_AND_NEXT (Concurrence:
-        the cutting hand from the cut to its standby by the next target, the suction arm from the
-        box to that target's suction pose): where the two arms' ways out of the cut would meet,
-        the suction arm leaves first and the cutting hand waits at the cut until it is away,
-        instead of going home and back."""
+        """TO_BOX (DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR, suction off) -> PARK_AND_NEXT
+        (Concurrence: the cutting hand from the cut to its standby by the next target, the
+        suction arm from the box to that target's suction pose): where the two arms' ways out
+        of the cut would meet, the suction arm leaves first and the cutting hand waits at the
+        cut until it is away, instead of going home and back."""
         sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
-                                input_keys=['next_goal', 'standby_goal'])
+                                input_keys=['targets', 'next_goal', 'standby_goal'])
         with sm:
-            add('DO_MOVE_ROBOT_BOX', self.move_fixed('DO_MOVE_ROBOT', ARM_RIGHT,
-                                                     self.cfg['collection_box_right']),
-                transitions={'succeeded': 'DO_MOVE_ENDEFFECTOR'})
-            add('DO_MOVE_ENDEFFECTOR', self.end_effector(EndEffectorGoal.SUCTION_OFF),
-                transitions={'succeeded': 'PARK_AND_NEXT'})
+            add('TO_BOX', self.to_box(ahead=False), transitions={'succeeded': 'PARK_AND_NEXT'})
             add('PARK_AND_NEXT', _overlap(
                 [('DO_MOVE_ROBOT', self.move_to(ARM_LEFT, 'standby_goal')),
                  ('DO_MOVE_ROBOT_NEXT', self.move_to(ARM_RIGHT, 'next_goal'))],
@@ -327,13 +323,14 @@ class PipelinedGraph(_Graph):
                 transitions={'unreachable': 'succeeded', 'aborted': 'succeeded'})
         return sm
 
-    def to_box(self, next_key=None):
+    def to_box(self, next_key=None, ahead=True):
         """DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR off [-> the next target's suction pose]:
         the pose in userdata `next_key` (planned and cleared with the standby), else
-        NEXT_AHEAD."""
+        NEXT_AHEAD (not with `ahead` False)."""
         sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'],
                                 input_keys=['targets'] + ([next_key] if next_key else []))
-        ahead = not self.check_cut     # check_cut: the suction arm waits for the cut check
+        # check_cut: the suction arm waits for the cut check
+        ahead = ahead and not self.check_cut
         with sm:
             add('DO_MOVE_ROBOT_BOX', self.move_fixed('DO_MOVE_ROBOT', ARM_RIGHT,
                                                      self.cfg['collection_box_right']),
