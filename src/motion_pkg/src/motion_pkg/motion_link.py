@@ -84,10 +84,16 @@ class LinkMixin(object):
             index = self._poll_index
             self._state = state
             active = list(self._active.values()) + self._arm_goals.goals()
-        msg = JointState(name=self.regmap.joint_names, position=state.positions,
-                         velocity=state.velocities)
-        msg.header.stamp = rospy.Time.from_sec(now)
-        self.joint_pub.publish(msg)
+        if now != self._joint_stamp:
+            # a goal's own poll can come in the same clock step as the poll thread's: a
+            # second joint state of one stamp would make robot_state_publisher send that tf
+            # again (TF_REPEATED_DATA in every tf listener). (A clock that jumps back, a
+            # restarted simulation or a looping bag, is published at once.)
+            self._joint_stamp = now
+            msg = JointState(name=self.regmap.joint_names, position=state.positions,
+                             velocity=state.velocities)
+            msg.header.stamp = rospy.Time.from_sec(now)
+            self.joint_pub.publish(msg)
         actions = resumed
         for entry in active:
             outcome = entry.monitor.update(index, state, now)

@@ -106,6 +106,7 @@ class MotionServer(LinkMixin, ActiveGoalsMixin, AxesMovesMixin, EndEffectorMixin
         self._state = None
         self._poll_index = 0
         self._last_good = None
+        self._joint_stamp = None        # ROS time of the last joint_states published
         self._poll_error = ''
         self._last_status = None
         self._status_lock = threading.Lock()
