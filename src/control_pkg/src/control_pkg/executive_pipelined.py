@@ -483,7 +483,9 @@ class _PipelinedCallbacks(_Callbacks):
     def place_step(self, ud):
         """'standby' when the left arm may go to its standby by the next target while the right
         arm goes to the box and then to that target's suction pose (both legs checked against
-        the left arm's whole way); else PLACE as before, the left arm home."""
+        the left arm's whole way); 'box_first' when only the first leg meets it, the right arm's
+        way to the box is clear of the resting left arm and the second leg of the left arm's way
+        from the cut (PLACE_THEN_PARK); else PLACE as before, the left arm home."""
         if ud.standby_goal and ud.next_goal:
             c = self.context
             left, right = c.arm_joints('left'), c.arm_joints('right')
