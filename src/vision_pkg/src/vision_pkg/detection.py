@@ -50,8 +50,8 @@ import numpy as np
 
 from vision_pkg.circle_fit import arc_fit_circle, fit_circle, robust_fit_circle  # noqa: F401
 from vision_pkg.fruit import (STAGE_GREEN, STAGE_NAMES, STAGE_PINK, STAGE_RED,  # noqa: F401
-                              STAGE_THRESHOLDS, STAGE_TURNING, Detection, stage_of)
-from vision_pkg.fruit import lab_hue_angle  # noqa: F401 (here before it moved to fruit)
+                              STAGE_THRESHOLDS, STAGE_TURNING, Detection, lab_hue_angle,
+                              stage_of)
 from vision_pkg.regions import Frame, RegionSplitter, share_inside
 from vision_pkg.surface import RoundSurface
 
