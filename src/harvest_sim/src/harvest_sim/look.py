@@ -42,7 +42,7 @@ from collections import OrderedDict, namedtuple
 import cv2
 import numpy as np
 
-KINDS = ('daylight', 'led', 'warm')
+from harvest_sim.scenario_model import LOOK_KINDS as KINDS
 
 #: per kind: gains of R and B relative to G (the cast left in the picture) and exposure in EV
 KIND_RANGES = OrderedDict([

@@ -5,6 +5,7 @@ import math
 import cv2
 import numpy as np
 
+from harvest_sim import render_cache
 from harvest_sim.render_materials import (CANOPY_TILE, NEAR, TEX_RES, noise_texture, rgb_to_bgr,
                                           wrapped_leaflet)
 
@@ -32,12 +33,21 @@ class BackgroundPainter(object):
         """One texture atlas for every background plane: each tile is stored 2 x 2 times (the
         canopies 2 x 1: they are clamped in height) so that coordinates taken modulo the tile
         and shifted by half a tile never touch an edge (seamless wrapping with bilinear
-        filtering). Slots: (origin, tile size, m/texel)."""
+        filtering). Slots: (origin, tile size, m/texel). The tiles are baked once per scenario
+        and painting code (render_cache: later starts load them)."""
         bg = self.look_config.background if self.look_config is not None else 'foliage'
-        tiles = [(self._canopy(rng, canopy_lit, bg), TEX_RES),
-                 (self._canopy(rng, canopy_lit * np.float32(0.9), bg), TEX_RES),
-                 (self._floor(rng, floor_lit), 0.004),
-                 (self._roof(rng, roof_lit), 0.01)]
+        lt = self.scenario.lighting
+        names = ('canopy', 'aisle', 'floor', 'roof')
+        key = render_cache.entry_key(
+            'atlas', rng.bit_generator.state, bg, tuple(float(v) for v in lt.colour),
+            float(lt.intensity), float(canopy_lit), float(floor_lit), float(roof_lit))
+        baked = render_cache.load(key, names)
+        if baked is None:
+            baked = [self._canopy(rng, canopy_lit, bg),
+                     self._canopy(rng, canopy_lit * np.float32(0.9), bg),
+                     self._floor(rng, floor_lit), self._roof(rng, roof_lit)]
+            render_cache.store(key, dict(zip(names, baked)))
+        tiles = list(zip(baked, (TEX_RES, TEX_RES, 0.004, 0.01)))
         blocks = [np.tile(t, (1, 2, 1) if i < 2 else (2, 2, 1))   # canopy: clamped in height
                   for i, (t, _) in enumerate(tiles)]
         # canopies stacked; floor, roof and a sky swatch side by side below them

@@ -100,7 +100,11 @@ def wrapped_leaflet(img, centre, length, aspect, angle, colour, width_px):
     pts = local.dot(np.array([[c, si], [-si, c]])) + centre
     rib = np.array([[-c, -si], [c, si]]) * length * 0.45 + centre
     light = tuple(min(v * 1.35, 1.0) for v in colour)
+    lo = min(float(pts[:, 0].min()), float(rib[:, 0].min())) - 2.0   # anti-aliased edge
+    hi = max(float(pts[:, 0].max()), float(rib[:, 0].max())) + 2.0
     for dx in (-width_px, 0, width_px):
+        if hi + dx < 0.0 or lo + dx > width_px:
+            continue        # this copy lies wholly outside the tile: it would draw nothing
         off = np.array([dx, 0.0])
         cv2.fillPoly(img, [np.round((pts + off) * 4).astype(np.int32)], colour, cv2.LINE_AA, 2)
         cv2.line(img, tuple(int(v) for v in np.round((rib[0] + off) * 4)),

@@ -9,8 +9,6 @@ from collections import OrderedDict
 
 import numpy as np
 
-from harvest_sim import look as look_model
-
 RIPE_THRESHOLD = 0.7
 #: (stage name, lowest ripeness of the stage)
 STAGES = (('green', 0.0), ('turning', 0.25), ('pink', 0.5), ('red', 0.7))
@@ -19,7 +17,9 @@ RADIUS_RANGE = (0.010, 0.050)
 SIZE_CLASSES = OrderedDict([('cherry', (0.011, 0.016)), ('round', (0.028, 0.042)),
                             ('large', (0.040, 0.048))])
 FRUIT_SIZES = tuple(SIZE_CLASSES) + ('mixed',)
-LOOK_KINDS = look_model.KINDS
+#: camera look kinds (harvest_sim.look has the ranges of each; this module does not import it,
+#: so that loading a scenario does not load OpenCV)
+LOOK_KINDS = ('daylight', 'led', 'warm')
 BACKGROUNDS = ('foliage', 'mixed', 'film')
 PEDUNCLE_GAP = 0.01
 #: where fruit in view of a picking point sit: map x, z and |y - point| (issue text)
