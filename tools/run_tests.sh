@@ -108,10 +108,8 @@ echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the
 # so the two makes never compile the same file at once; catkin_make, whose configure check
 # settles the build directory (the first plain make after tools/setup.sh ran cmake again and
 # rewrote the devel space's Python packages while the other lane's tests imported them)
-# (the message generators tools/setup.sh turned off stay off if this configures again)
-ROS_LANG_DISABLE="$(tools/lang_disable.sh)"
-export ROS_LANG_DISABLE
-if ! catkin_make -C "$ROOT" tests -j2 > "$RESULTS/tests-build.log" 2>&1; then
+# (tools/catkin_make.sh: setup.sh's arguments, so that CMake does not run again)
+if ! tools/catkin_make.sh tests -j2 > "$RESULTS/tests-build.log" 2>&1; then
   tail -80 "$RESULTS/tests-build.log"; FAILED_STEPS+=(tests-build)
 fi
 # make_each JOBS LOG TARGET...: one make process per target, JOBS at a time, each into its own

@@ -41,13 +41,10 @@ else
   echo "[setup] PyPI packages: up to date"
 fi
 
-# 3. Build the workspace with the venv's interpreter; messages for Python and C++ only
-#    (tools/lang_disable.sh).
+# 3. Build the workspace with the venv's interpreter (tools/catkin_make.sh: its arguments, and
+#    messages for Python and C++ only).
 if [ "${HARVEST_SKIP_BUILD:-0}" != "1" ]; then
-  ROS_LANG_DISABLE="$(tools/lang_disable.sh)"
-  export ROS_LANG_DISABLE
   echo "[setup] building the workspace"
-  catkin_make -C "$ROOT" -DPYTHON_EXECUTABLE="$VENV/bin/python" -DCMAKE_BUILD_TYPE=Release \
-    -j2 > "$ROOT/build.log" 2>&1 || { tail -60 "$ROOT/build.log"; echo "[setup] build FAILED (see build.log)"; exit 1; }
+  tools/catkin_make.sh -j2 > "$ROOT/build.log" 2>&1 || { tail -60 "$ROOT/build.log"; echo "[setup] build FAILED (see build.log)"; exit 1; }
   echo "[setup] build ok"
 fi
