@@ -7,8 +7,9 @@ SimpleActionState, written anew for this workspace. Differences, all deliberate:
 - the constructor's default goal is copied for each execution, so a goal_cb that edits the
   goal in place does not leak into the next execution;
 - waiting (for the server, the result, a timeout, a preempt) is one Condition, woken by the
-  action client callbacks, request_preempt, one-shot rospy.Timers (ROS time, so timeouts
-  follow /use_sim_time) and rospy shutdown; nothing sleep-polls;
+  action client callbacks, request_preempt, ROS-time alarms (ros_alarms: timeouts follow
+  /use_sim_time; one shared thread, not a rospy.Timer per goal, whose thread would outlive
+  the goal by its whole timeout) and rospy shutdown; nothing sleep-polls;
 - it drives actionlib's ActionClient and its goal handle directly, not SimpleActionClient:
   SimpleActionClient stores the new goal handle only after the goal is published and drops
   (with "Got a transition callback on a goal handle that we're not tracking") any transition
@@ -31,6 +32,7 @@ import rospy
 from actionlib.action_client import ActionClient, CommState
 from actionlib_msgs.msg import GoalStatus
 
+from control_pkg import ros_alarms
 from control_pkg.smach_compat import smach
 from control_pkg.smach_ros_compat_server import (  # noqa: F401 - RECONNECT_PERIOD ... re-exported
     RECONNECT_PERIOD, SERVER_CHECK_PERIOD, _ACTION_TOPICS, ServerWait, resend_publishers,
@@ -273,7 +275,7 @@ class SimpleActionState(ServerWait, smach.State):
                 if self._goal_id == goal_id:
                     setattr(self, flag, True)
                     self._cond.notify_all()
-        return rospy.Timer(timeout, expire, oneshot=True)
+        return ros_alarms.call_after(timeout, expire)
 
     def _run_goal(self, ud, goal):
         """Send the goal and wait for its end; an outcome string if it ended without one."""
@@ -323,7 +325,7 @@ class SimpleActionState(ServerWait, smach.State):
         handle = self._client.send_goal(goal, transition_cb, feedback_cb)
         if self._exec_timeout:
             timers.append(self._start_timer(self._exec_timeout, '_exec_expired', goal_id))
-        timers.append(rospy.Timer(SERVER_CHECK_PERIOD, check_server))
+        timers.append(ros_alarms.call_every(SERVER_CHECK_PERIOD, check_server))
         cancel_sent = False
         outcome = None
         try:
