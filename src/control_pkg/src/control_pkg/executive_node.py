@@ -65,7 +65,8 @@ class TaskPlanner(EmergencyStopAndResume):
 
     def __init__(self):
         defaults = load_defaults()
-        overrides = {k: rospy.get_param('~' + k) for k in defaults if rospy.has_param('~' + k)}
+        private = rospy.get_param('~', {})        # one call to the master, not two per key
+        overrides = {k: private[k] for k in defaults if k in private}
         try:
             self.config = merged_config(overrides, defaults)
         except ValueError as exc:
