@@ -13,5 +13,15 @@ for g in genlisp geneus gennodejs; do
   if rospack find "$g" >/dev/null 2>&1; then DISABLE="${DISABLE:+$DISABLE:}$g"; fi
 done
 export ROS_LANG_DISABLE="$DISABLE"
-exec catkin_make -C "$ROOT" -DPYTHON_EXECUTABLE="$ROOT/.venv/bin/python" \
+catkin_make -C "$ROOT" -DPYTHON_EXECUTABLE="$ROOT/.venv/bin/python" \
   -DCMAKE_BUILD_TYPE=Release "$@"
+# The test targets run their commands through build/catkin_generated/env_cached.sh, a snapshot
+# of what sourcing devel/setup.sh changes, taken when CMake configured. On a fresh clone that is
+# before the build made devel/lib/python3/dist-packages, so the snapshot set PYTHONPATH to ''
+# and every test missed the workspace's Python packages (once CMake no longer ran a second time
+# with the other arguments of an older run_tests.sh). Taken again now that the devel space is
+# there, by the script CMake generated for it.
+CACHED_SETUP="$ROOT/build/catkin_generated/generate_cached_setup.py"
+if [ -f "$CACHED_SETUP" ]; then
+  "$ROOT/.venv/bin/python" "$CACHED_SETUP"
+fi
