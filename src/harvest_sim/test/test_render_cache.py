@@ -88,3 +88,12 @@ def test_oldest_entries_go_beyond_the_limit(cache, monkeypatch):
         os.utime(os.path.join(str(cache), 'k%d.npz' % i), (1000 + i, 1000 + i))
     assert entries(cache) == ['k2.npz', 'k3.npz', 'k4.npz']
     assert render_cache.load('k4', ('a',))[0].tolist() == [4, 4]
+
+
+def test_unreadable_painting_code_means_no_cache(cache, monkeypatch):
+    monkeypatch.setattr(render_cache, '_code_digest', '')      # the sources could not be read
+    assert render_cache.entry_key('atlas', 1) is None
+    assert render_cache.store(None, {'a': np.zeros(3)}) is False
+    assert render_cache.load(None, ('a',)) is None
+    render.Renderer(single_fruit_scenario((0.5, 0.0, 1.0)))
+    assert entries(cache) == []

@@ -39,23 +39,32 @@ def cache_dir():
 
 
 def code_digest():
-    """Digest of the code that paints the textures and of the libraries it paints with."""
+    """Digest of the code that paints the textures and of the libraries it paints with; ''
+    when the sources cannot be read (then nothing is cached: a key could not follow them)."""
     global _code_digest
     if _code_digest is None:
         import cv2       # the caller has it loaded already (it paints with it)
         h = hashlib.sha1()
         here = os.path.dirname(os.path.abspath(__file__))
-        for name in _SOURCES:
-            with open(os.path.join(here, name), 'rb') as f:
-                h.update(f.read())
+        try:
+            for name in _SOURCES:
+                with open(os.path.join(here, name), 'rb') as f:
+                    h.update(f.read())
+        except OSError:
+            _code_digest = ''
+            return _code_digest
         h.update(('numpy %s opencv %s' % (np.__version__, cv2.__version__)).encode())
         _code_digest = h.hexdigest()
     return _code_digest
 
 
 def entry_key(*inputs):
-    """Cache key of a bake from `inputs` (reprs of plain values and numpy arrays)."""
-    h = hashlib.sha1(code_digest().encode())
+    """Cache key of a bake from `inputs` (reprs of plain values and numpy arrays); None when
+    the painting code's source cannot be read (load and store then do nothing)."""
+    code = code_digest()
+    if not code:
+        return None
+    h = hashlib.sha1(code.encode())
     for item in inputs:
         h.update(repr(np.asarray(item).tolist() if isinstance(item, np.ndarray) else item)
                  .encode())
@@ -66,7 +75,7 @@ def entry_key(*inputs):
 def load(key, names):
     """The arrays `names` stored under key, or None (no entry, caching off, unreadable)."""
     directory = cache_dir()
-    if directory is None:
+    if directory is None or key is None:
         return None
     path = os.path.join(directory, key + '.npz')
     try:
@@ -79,7 +88,7 @@ def load(key, names):
 def store(key, arrays):
     """Store the named arrays (a dict) under key; False if the cache could not take them."""
     directory = cache_dir()
-    if directory is None:
+    if directory is None or key is None:
         return False
     tmp = None
     try:
