@@ -1,7 +1,7 @@
 """Stamps of simulated camera frames (harvest_sim.frame_timing)."""
 
 import sim_fixtures  # noqa: F401  (puts harvest_sim on the path)
-from harvest_sim.frame_timing import frame_stamp
+from harvest_sim.frame_timing import frame_stamp, next_frame_hold
 
 
 def test_a_frame_carries_the_time_of_the_pose_it_shows():
@@ -23,3 +23,12 @@ def test_without_joint_states_the_frame_is_stamped_now():
 
 def test_a_joint_state_from_the_future_is_capped_at_now():
     assert frame_stamp(now=100.0, joint_stamp=100.02) == 100.0
+
+
+def test_free_running_hold_is_one_period_after_the_frame_never_in_the_past():
+    # on schedule: the timer fired at its expected time
+    assert next_frame_hold(now=106.0, expected=106.0, period=0.5) == 106.5
+    # the timer's expected time fell behind (it started before the clock, or a hold was
+    # dropped): the hold is one period after now, where the timer fires next, not in the past
+    assert next_frame_hold(now=106.48, expected=2.0, period=0.5) == 106.98
+    assert next_frame_hold(now=106.48, expected=2.0, period=0.5) > 106.48

@@ -55,7 +55,7 @@ from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Empty
 
 from harvest_sim import camera_model, names, render
-from harvest_sim.frame_timing import CameraSilence, frame_stamp
+from harvest_sim.frame_timing import CameraSilence, frame_stamp, next_frame_hold
 from harvest_sim.msg import CameraSilence as CameraSilenceMsg
 from harvest_sim.msg import ClockHold, SimFruitArray
 from harvest_sim.world_node import load_robot_config, load_scenario_param
@@ -309,7 +309,8 @@ class SimCameraNode(object):
             finally:
                 # hold the clock at the next frame's time until that frame is out (not while
                 # silent: nothing would come)
-                self.holder.hold(self.silence.hold(now, event.current_expected + self._period))
+                self.holder.hold(self.silence.hold(
+                    now, next_frame_hold(now, event.current_expected, self._period)))
 
     # -- one frame ------------------------------------------------------------------------
     def _frame(self):

@@ -23,6 +23,17 @@ def frame_stamp(now, joint_stamp, last_stamp=None):
     return stamp
 
 
+def next_frame_hold(now, expected, period):
+    """Where a free-running camera holds the clock after its frame at `now`: the time its
+    next frame is due. A periodic rospy.Timer fires next at most one period after the time it
+    fired (its Rate starts afresh after a jump), while the event's `expected` time only ever
+    adds periods: if the timer started before the clock or the clock once ran on (a dropped
+    hold), `expected` stays behind, a hold there lies in the past, and every frame after that
+    stopped the clock until sim_clock dropped the hold (10 wall seconds each). So: one period
+    after the later of the two."""
+    return max(now, expected) + period
+
+
 #: camera name of the camera_silence fault that silences every camera
 ALL_CAMERAS = 'all'
 CAMERA_NAMES = ('stereo', 'hand')
