@@ -8,6 +8,9 @@ import rospy
 
 from control_pkg import ros_alarms
 
+#: rospy's clock (rostime._set_rostime, switch_to_wallclock) still calls Condition.notifyAll
+pytestmark = pytest.mark.filterwarnings('ignore:notifyAll:DeprecationWarning')
+
 
 @pytest.fixture
 def sim_clock():
