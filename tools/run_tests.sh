@@ -105,10 +105,9 @@ echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the
 # Makefile is .NOTPARALLEL: one make given several goals runs them one after another whatever
 # its -j, so the rostests' -j3 below runs them one at a time (parallel rostests not tried).
 # every run_tests target depends on `tests` (the gtest binaries): built once here, before the lanes,
-# so the two makes never compile the same file at once; catkin_make, whose configure check
-# settles the build directory (the first plain make after tools/setup.sh ran cmake again and
-# rewrote the devel space's Python packages while the other lane's tests imported them)
-# (tools/catkin_make.sh: setup.sh's arguments, so that CMake does not run again)
+# so the two makes never compile the same file at once. Through tools/catkin_make.sh (setup.sh's
+# arguments: catkin_make only checks the build system, CMake does not run again and rewrite the
+# devel space's Python packages while the other lanes' tests import them)
 if ! tools/catkin_make.sh tests -j2 > "$RESULTS/tests-build.log" 2>&1; then
   tail -80 "$RESULTS/tests-build.log"; FAILED_STEPS+=(tests-build)
 fi

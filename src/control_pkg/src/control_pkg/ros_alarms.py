@@ -18,7 +18,7 @@ import threading
 
 import rospy
 
-__all__ = ['call_after', 'call_every', 'Alarm']
+__all__ = ['call_after', 'call_every', 'pending', 'Alarm']
 
 _WAIT_CAP = 0.5      # wall s: the longest a wait goes without looking at the clock again
 

@@ -59,15 +59,14 @@ def code_digest():
 
 
 def entry_key(*inputs):
-    """Cache key of a bake from `inputs` (reprs of plain values and numpy arrays); None when
-    the painting code's source cannot be read (load and store then do nothing)."""
+    """Cache key of a bake from `inputs` (plain values, keyed by their repr); None when the
+    painting code's source cannot be read (load and store then do nothing)."""
     code = code_digest()
     if not code:
         return None
     h = hashlib.sha1(code.encode())
     for item in inputs:
-        h.update(repr(np.asarray(item).tolist() if isinstance(item, np.ndarray) else item)
-                 .encode())
+        h.update(repr(item).encode())
         h.update(b'\0')
     return h.hexdigest()
 
@@ -80,7 +79,7 @@ def load(key, names):
     path = os.path.join(directory, key + '.npz')
     try:
         with np.load(path, allow_pickle=False) as data:
-            return [np.array(data[n]) for n in names]
+            return [data[n] for n in names]      # each read is a new array: no copy
     except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile):
         return None
 
