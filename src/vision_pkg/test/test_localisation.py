@@ -263,6 +263,87 @@ def test_a_fruit_with_only_rim_points_has_no_3d_point():
         < 0.002
 
 
+def _fruit_behind_a_neighbour(back_step=2, front_step=1):
+    """A red fruit (the detection's circle, radius 35 mm at 0.60 m) whose part also holds a
+    neighbour of the same colour in front of it (33 mm at 0.53 m, to its left and overlapping
+    it by a third), as when the detector's part runs over both: long_row f19_3 behind f19_1.
+    The neighbour's skin matches on every `front_step`-th pixel, the fruit's on every
+    `back_step`-th one. Returns (cloud, image, detection with the part's mask, true centre of
+    the fruit and of the neighbour in the left frame)."""
+    back_c, back_r = np.array([0.03, -0.02, 0.60]), 0.035
+    front_c, front_r = np.array([-0.012, -0.016, 0.53]), 0.033
+    u0, v0 = scene.project(back_c)
+    r_px = scene.FOCAL * back_r / back_c[2]
+    y0, x0 = int(v0 - 2.2 * r_px), int(u0 - 2.2 * r_px)
+    vv, uu = np.mgrid[y0:int(v0 + 1.6 * r_px), x0:int(u0 + 1.6 * r_px)].astype(np.float64)
+    rays = _ray(uu, vv)
+    s_back, s_front = _sphere_hit(rays, back_c, back_r), _sphere_hit(rays, front_c, front_r)
+    front = np.isfinite(s_front)
+    back = np.isfinite(s_back) & ~front
+    image = np.full((scene.HEIGHT, scene.WIDTH, 3), 90, np.uint8)
+    part = front | back
+    image[vv[part].astype(int), uu[part].astype(int)] = SKIN_BGR
+    depth = np.full(uu.shape, np.nan)
+    sel = front & (uu % front_step == 0) & (vv % front_step == 0)
+    depth[sel] = s_front[sel]
+    sel = back & (uu % back_step == 0) & (vv % back_step == 0)
+    depth[sel] = s_back[sel]
+    ok = np.isfinite(depth)
+    cloud = _cloud_of(uu[ok], vv[ok], rays[ok] * depth[ok][:, None])
+    # the part's mask cropped to the circle's box, as the detector keeps it
+    cx0, cy0 = int(math.floor(u0 - r_px)) - 1, int(math.floor(v0 - r_px)) - 1
+    crop = part[cy0 - y0:int(math.ceil(v0 + r_px)) + 2 - y0,
+                cx0 - x0:int(math.ceil(u0 + r_px)) + 2 - x0]
+    det = Detection(u0, v0, r_px, 0.95, mask=crop.copy(), mask_origin=(cx0, cy0), mask_scale=1.0)
+    offset = np.array([scene.BASELINE, 0.0, 0.0])
+    return cloud, image, det, back_c + offset, front_c + offset
+
+
+def test_a_neighbour_of_the_same_colour_in_front_does_not_take_the_fruits_place():
+    """The neighbour in front has the part's colour and a fruit's radius, and the most points:
+    it was taken for the fruit, 70-76 mm too near (long_row f19_3: the suction cup closed on
+    air). The fruit's points lie where the part's outline runs along its circle, the
+    neighbour's where it does not: the fruit is the cluster in the outline's sectors."""
+    cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=3)
+    pts = localisation.points_on_fruit(cloud, det, P_RIGHT)
+    near = np.sum(pts[:, 2] < 0.56)
+    assert near > len(pts) / 2, 'the neighbour must be most of the points for this test'
+    sectors = localisation.outline_sectors(det)
+    assert 0 < sectors.sum() < len(sectors)
+    # the outline follows the circle on the right (angle 0), not on the left (angle 180)
+    assert sectors[localisation.sector_index(1.0, 0.0)]
+    assert not sectors[localisation.sector_index(-1.0, 0.0)]
+    loc = localisation.locate(cloud, det, P_RIGHT, image=image)
+    assert np.linalg.norm(loc.centre - truth) < 0.003, loc
+    # without the part's outline (no mask) the largest cluster, the neighbour, is taken
+    no_mask = Detection(det.u, det.v, det.radius_px, det.score)
+    old = localisation.locate(cloud, no_mask, P_RIGHT, image=image)
+    assert np.linalg.norm(old.centre - truth) > 0.05
+    assert old.centre[2] < neighbour[2] + 0.02
+
+
+def test_a_fruit_in_front_keeps_its_place_over_a_neighbour_behind():
+    """The mirror case: the detection is the fruit in front and the part runs over a
+    neighbour behind it; the front fruit's points are in its outline's sectors and stay the
+    fruit, also when they are fewer."""
+    cloud, image, det, back, front = _fruit_behind_a_neighbour(back_step=1, front_step=2)
+    u0, v0 = scene.project(front - np.array([scene.BASELINE, 0.0, 0.0]))
+    r_px = scene.FOCAL * 0.033 / (front[2])
+    # the front fruit's circle, with the same part (both fruit) cropped to its box
+    whole = np.zeros((scene.HEIGHT, scene.WIDTH), bool)
+    m = det.mask
+    whole[det.mask_origin[1]:det.mask_origin[1] + m.shape[0],
+          det.mask_origin[0]:det.mask_origin[0] + m.shape[1]] = m
+    vv, uu = np.mgrid[0:scene.HEIGHT, 0:scene.WIDTH]
+    inside_front = np.hypot(uu - u0, vv - v0) <= r_px
+    whole |= inside_front
+    cx0, cy0 = int(math.floor(u0 - r_px)) - 1, int(math.floor(v0 - r_px)) - 1
+    crop = whole[cy0:int(math.ceil(v0 + r_px)) + 2, cx0:int(math.ceil(u0 + r_px)) + 2]
+    front_det = Detection(u0, v0, r_px, 0.95, mask=crop.copy(), mask_origin=(cx0, cy0))
+    loc = localisation.locate(cloud, front_det, P_RIGHT, image=image)
+    assert np.linalg.norm(loc.centre - front) < 0.003, loc
+
+
 def test_a_clean_fruit_is_one_depth_cluster_and_located_as_before(stereo_scene):
     """On a fruit with nothing in front, StereoBM's points are one cluster: the image changes
     nothing but the highlight ranging, and the pick point stays within 5 mm."""

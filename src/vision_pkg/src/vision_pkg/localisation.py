@@ -46,12 +46,21 @@ fruit's (FRUIT_RADIUS_RANGE) and whose pixels have the colour of the part (media
 within SKIN_CHROMA_TOL of the part's; highlight points count as skin): stems, leaves and a
 neighbour of another colour are not the skin, and a mismatch behind the fruit has its colour but
 few points. No such cluster, or no image: all points, as before. (A neighbour that is most of
-the part sets the part's colour itself and is kept.) A fruit with fewer than
+the part sets the part's colour itself and is kept.) A neighbour of the same colour and size
+whose part the detector joined to the fruit's passes both tests, and in front of a
+textureless fruit it had the most points: long_row f19_3 came out 76 mm too near, behind
+f19_1, and the suction cup closed on air. Where the circle is the fruit's own, its edge is
+seen: the part's outline runs along the circle there (`outline_sectors`, from the detection's
+mask), while the neighbour's points lie where the outline leaves the circle for the
+neighbour's. So of several clusters that pass, one with a share of points in those sectors
+larger than the largest cluster's by SECTOR_MARGIN is the fruit (points near the centre have
+no sector and do not count). A fruit with fewer than
 min_points points in its core has only rim points, which block matching smears (a fruit outside
 the left camera's view got its 18 points from the background, 300 mm too far): no 3D point.
 """
 import math
 
+import cv2
 import numpy as np
 
 #: points farther from the centre axis than this fraction of R are not used
@@ -69,6 +78,17 @@ CLUSTER_GAP = 0.5
 FRUIT_RADIUS_RANGE = (0.018, 0.055)
 #: a cluster whose pixels' median chromaticity is this close to the part's is the fruit's skin
 SKIN_CHROMA_TOL = 0.1
+#: angular sectors round the circle in which the part's outline is looked for (outline_sectors)
+OUTLINE_BINS = 24
+#: a part's outline pixel this close to the circle (fraction of its radius, at least 1.5 pixels
+#: of the mask) follows it
+OUTLINE_TOL = 0.06
+#: a sector whose arc is this much covered by outline pixels on the circle is the fruit's edge
+OUTLINE_COVER = 0.5
+#: points nearer the circle's centre than this fraction of its radius have no sector
+SECTOR_MIN_OFFSET = 0.35
+#: of two same-coloured clusters, the one more in the outline's sectors by this fraction wins
+SECTOR_MARGIN = 0.3
 
 
 class FruitLocation(object):
@@ -256,19 +276,67 @@ def depth_clusters(dist, sin_a, gap=CLUSTER_GAP):
     return np.split(order, cuts)
 
 
+def outline_sectors(detection, bins=OUTLINE_BINS, tol=OUTLINE_TOL, min_cover=OUTLINE_COVER):
+    """Bool array of `bins` angular sectors round the detection's circle (sector i spans
+    atan2(v - v0, u - u0) in [-pi + i w, -pi + (i + 1) w)) along which the outline of its part
+    runs on the circle (outline pixels within `tol` of it for at least `min_cover` of the
+    sector's arc; a boundary that only crosses the circle covers a pixel or two), widened by
+    one sector each way: where the fruit's own edge is seen. None without a part mask."""
+    mask = detection.mask
+    if mask is None or mask.size == 0:
+        return None
+    # the crop's own border is not an outline (erode's default border keeps those pixels)
+    m = np.asarray(mask, dtype=np.uint8)
+    edge = (m > 0) & ~(cv2.erode(m, np.ones((3, 3), np.uint8)) > 0)
+    ys, xs = np.nonzero(edge)
+    scale = float(detection.mask_scale)
+    u = (xs + detection.mask_origin[0] + 0.5) / scale - 0.5 - detection.u
+    v = (ys + detection.mask_origin[1] + 0.5) / scale - 0.5 - detection.v
+    r = float(detection.radius_px)
+    on = np.abs(np.hypot(u, v) - r) <= max(tol * r, 1.5 / scale)
+    counts = np.bincount(sector_index(u[on], v[on], bins), minlength=bins)
+    # outline pixels (8-connected) along an arc: about its length in mask pixels
+    arc = r * scale * 2.0 * math.pi / bins
+    sectors = counts >= min_cover * arc
+    return sectors | np.roll(sectors, 1) | np.roll(sectors, -1)
+
+
+def sector_index(du, dv, bins=OUTLINE_BINS):
+    """Sector (outline_sectors) of each offset (du, dv) from the circle's centre."""
+    a = np.arctan2(np.asarray(dv, dtype=np.float64), np.asarray(du, dtype=np.float64))
+    return np.minimum(((a + math.pi) * (bins / (2.0 * math.pi))).astype(np.int64), bins - 1)
+
+
 def fruit_cluster(clusters, dist, sin_a, colour, min_points=MIN_POINTS,
-                  radius_range=FRUIT_RADIUS_RANGE, tol=SKIN_CHROMA_TOL):
-    """The cluster (index array) that is the fruit: the largest with at least min_points points,
-    a radius (median dist x sin alpha) in radius_range and a median colour distance <= tol;
-    None when there is none."""
-    best = None
+                  radius_range=FRUIT_RADIUS_RANGE, tol=SKIN_CHROMA_TOL, in_outline=None,
+                  margin=SECTOR_MARGIN):
+    """The cluster (index array) that is the fruit: of those with at least min_points points,
+    a radius (median dist x sin alpha) in radius_range and a median colour distance <= tol, the
+    largest; None when there is none. in_outline: per point, 1 when it lies in a sector where
+    the part's outline follows the circle, 0 when not, NaN when it has no sector (near the
+    centre): then a cluster more in those sectors than the largest by `margin` (fraction of its
+    points with a sector) is the fruit, the largest one being a neighbour of the same colour in
+    front of it or behind it (module docstring)."""
+    fits = []
     for idx in clusters:
-        if len(idx) < min_points or (best is not None and len(idx) <= len(best)):
+        if len(idx) < min_points:
             continue
         radius = float(np.median(dist[idx])) * sin_a
         if radius_range[0] <= radius <= radius_range[1] and float(np.median(colour[idx])) <= tol:
-            best = idx
-    return best
+            fits.append(idx)
+    if not fits:
+        return None
+    largest = max(fits, key=len)
+    if in_outline is None or len(fits) < 2:
+        return largest
+
+    def share(idx):
+        s = in_outline[idx]
+        s = s[np.isfinite(s)]
+        return float(s.mean()) if len(s) else 0.0
+
+    best = max(fits, key=share)
+    return best if share(best) >= share(largest) + margin else largest
 
 
 def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image=None,
@@ -304,7 +372,15 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
             if len(clusters) > 1 else None
         if colour is not None:
             colour[glint[core]] = 0.0
-            fruit = fruit_cluster(clusters, centre_d, sin_a, colour, min_points, radius_range)
+            sectors = outline_sectors(detection)
+            in_outline = None
+            if sectors is not None:
+                du, dv = pu[core] - detection.u, pv[core] - detection.v
+                in_outline = np.where(
+                    np.hypot(du, dv) >= SECTOR_MIN_OFFSET * detection.radius_px,
+                    sectors[sector_index(du, dv)].astype(np.float64), np.nan)
+            fruit = fruit_cluster(clusters, centre_d, sin_a, colour, min_points, radius_range,
+                                  in_outline=in_outline)
             if fruit is not None:
                 keep = core[fruit]
                 pts, pr, t, lateral, glint = pts[keep], pr[keep], t[keep], lateral[keep], \
