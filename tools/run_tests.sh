@@ -136,10 +136,14 @@ fi
 if ! wait $MISSION_PID; then
   tail -80 "$RESULTS/mission.log"; FAILED_STEPS+=(mission-build)
 fi
-# one line per package, "pytest <package>: N passed in S s" (failures: the summary, pytest.log)
-awk '/-m pytest .*--junitxml=/ { if (match($0, /test_results\/[a-z0-9_]+\//)) pkg = substr($0, RSTART + 13, RLENGTH - 14) }
-     /^=* *[0-9]+ (passed|failed|error).* in [0-9.]+s/ { l = $0; gsub(/=/, "", l); gsub(/^ +| +$/, "", l); print "pytest " pkg ": " l }' \
-  "$RESULTS/pytest.log"
+# one line per package, "pytest <package>: N passed in S s" (failures: the summary, pytest.log),
+# from each package's JUnit file: the log's order of make's command lines and pytest's output
+# is not the same everywhere (in the Docker image every line carried the previous package's name)
+PYTEST_PKGS=()
+for target in "${PYTEST_TARGETS[@]}"; do
+  pkg=${target#run_tests_}; PYTEST_PKGS+=("${pkg%_pytest}")
+done
+python tools/test_summary.py --pytest-lines build/test_results "${PYTEST_PKGS[@]}"
 
 echo "=== summary (build/test_results)"
 python tools/test_summary.py build/test_results || FAILED_STEPS+=(tests)

@@ -4,6 +4,10 @@ log then says what went wrong, not only where).
 
 Exit status 1 when any test failed or errored (a suite's errors outside any test case, such as
 a failed setUpClass, count too), or when no test ran at all.
+
+`--pytest-lines RESULTS PACKAGE...` prints instead one line per package from its pytest JUnit
+file (RESULTS/PACKAGE/pytest-test.xml): "pytest PACKAGE: N passed[, F failed] in S s", or that
+it has no result file.
 """
 import glob
 import os
@@ -69,6 +73,24 @@ def _int(text):
         return 0
 
 
+def pytest_line(results_dir, package):
+    """The "pytest PACKAGE: ..." line of one package's pytest JUnit file."""
+    path = os.path.join(results_dir, package, 'pytest-test.xml')
+    if not os.path.exists(path):
+        return 'pytest %s: no result file (%s)' % (package, path)
+    try:
+        tests, failures, errors, skipped, _ = count(path)
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        return 'pytest %s: unreadable result file %s: %s' % (package, path, exc)
+    suites = [root] if root.tag == 'testsuite' else root.findall('testsuite')
+    seconds = sum(float(suite.get('time') or 0.0) for suite in suites)
+    parts = ['%d passed' % (tests - failures - errors - skipped)]
+    parts += ['%d %s' % (n, what) for n, what in ((failures, 'failed'), (errors, 'errors'),
+                                                  (skipped, 'skipped')) if n]
+    return 'pytest %s: %s in %.2fs' % (package, ', '.join(parts), seconds)
+
+
 def main(results_dir):
     files = sorted(glob.glob(os.path.join(results_dir, '**', '*.xml'), recursive=True))
     total = failed_n = skipped_n = 0
@@ -95,4 +117,8 @@ def main(results_dir):
 
 
 if __name__ == '__main__':
+    if len(sys.argv) > 2 and sys.argv[1] == '--pytest-lines':
+        for name in sys.argv[3:]:
+            print(pytest_line(sys.argv[2], name))
+        sys.exit(0)
     sys.exit(main(sys.argv[1] if len(sys.argv) > 1 else 'test_results'))
