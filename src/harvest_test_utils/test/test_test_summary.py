@@ -60,3 +60,26 @@ def test_an_error_outside_any_test_case_fails(summary, tmp_path, capsys):
     assert out[0].startswith('FAILED rosunit-motion_server_test.xml: unittest.suite.TestSuite '
                              '(1 error(s) outside any test case')
     assert out[-1] == '1 passed, 1 failed, 0 skipped'
+
+
+def test_pytest_lines_are_read_from_each_packages_junit_file(summary, tmp_path):
+    """`make test`'s per-package lines: counts and time from the package's own file, so a log
+    whose lines come in another order (the Docker image's) cannot give them the wrong name."""
+    (tmp_path / 'vision_pkg').mkdir()
+    (tmp_path / 'vision_pkg' / 'pytest-test.xml').write_text(
+        '<testsuites><testsuite name="vision_pkg" tests="3" time="10.36">'
+        '<testcase classname="a" name="b"/><testcase classname="a" name="c">'
+        '<failure message="x"/></testcase><testcase classname="a" name="d">'
+        '<skipped/></testcase></testsuite></testsuites>')
+    (tmp_path / 'motion_pkg').mkdir()
+    (tmp_path / 'motion_pkg' / 'pytest-test.xml').write_text(
+        '<testsuites><testsuite name="motion_pkg" tests="1" time="2.5">'
+        '<testcase classname="a" name="b"/></testsuite></testsuites>')
+    assert summary.pytest_line(str(tmp_path), 'vision_pkg') == \
+        'pytest vision_pkg: 1 passed, 1 failed, 1 skipped in 10.36s'
+    assert summary.pytest_line(str(tmp_path), 'motion_pkg') == 'pytest motion_pkg: 1 passed in 2.50s'
+    assert summary.pytest_line(str(tmp_path), 'nothing').startswith(
+        'pytest nothing: no result file')
+    (tmp_path / 'broken').mkdir()
+    (tmp_path / 'broken' / 'pytest-test.xml').write_text('<testsuites><testsuite')
+    assert 'unreadable result file' in summary.pytest_line(str(tmp_path), 'broken')
