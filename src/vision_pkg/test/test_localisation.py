@@ -129,8 +129,9 @@ def test_a_fruit_seen_only_by_its_highlight_is_ranged_by_the_highlight_virtual_i
     cv2.circle(image, (int(round(gu)), int(round(gv))), 5, (200, 210, 250), -1)
     cloud = np.full((scene.HEIGHT, scene.WIDTH, 3), np.nan, np.float32)
     axis = centre / np.linalg.norm(centre)
-    # depth of the virtual image along the axis: the centre's, less k R
-    k = float(localisation.virtual_image_factor(gu - u0, gv - v0, r_px))
+    # depth at which block matching ranges the highlight along the axis: the centre's, less
+    # k R (3/4 of the way from the skin to the light's virtual image)
+    k = float(localisation.highlight_factor(gu - u0, gv - v0, r_px))
     virtual = np.linalg.norm(centre) - k * radius
     for dv in range(-4, 5):
         for du in range(-4, 5):
@@ -399,6 +400,19 @@ def test_the_virtual_image_of_a_highlight_follows_the_mirror_astigmatism():
     assert f(0.0, 39.0, 40.0) == pytest.approx(f(0.0, cap * 40.0, 40.0))
     # an oblique plane lies between the two
     assert f(0.0, -s45 * 40.0, 40.0, 0.9) < f(20.0, -20.0, 40.0, 0.9) < f(s45 * 40.0, 0.0, 40.0, 0.9)
+
+
+def test_a_highlight_is_ranged_part_of_the_way_to_the_virtual_image():
+    """highlight_factor: share 1 is the mirror's virtual image, share 0 the skin (the mirror
+    point, R cos theta in front of the centre); the default 3/4 lies between, 5/8 head-on."""
+    h, f = localisation.highlight_factor, localisation.virtual_image_factor
+    for du, dv in ((0.0, 0.0), (12.0, -9.0), (0.0, -28.0), (30.0, 1.0)):
+        cos_t = math.sqrt(1.0 - min(math.hypot(du, dv) / 40.0, localisation.SPECULAR_MAX_SIN) ** 2)
+        assert h(du, dv, 40.0, share=1.0) == pytest.approx(f(du, dv, 40.0))
+        assert h(du, dv, 40.0, share=0.0) == pytest.approx(cos_t)
+        assert f(du, dv, 40.0) < h(du, dv, 40.0) < cos_t
+    assert localisation.VIRTUAL_IMAGE_SHARE == 0.75
+    assert h(0.0, 0.0, 40.0) == pytest.approx(0.625)
 
 
 def test_fruit_radius_range_is_image_processings():
