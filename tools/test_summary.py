@@ -29,11 +29,17 @@ def why(element, limit=WHY_LINES):
     return lines[:limit] + (['... (%d more lines)' % more] if more > 0 else [])
 
 
-def count(path):
-    """Return (tests, failures, errors, skipped, failed) of one JUnit XML file; failed: a
-    (name, lines why) per failed or errored test case."""
+def suites_of(path):
+    """The <testsuite> elements of one JUnit XML file (its root, or the root's children)."""
     root = ET.parse(path).getroot()
-    suites = [root] if root.tag == 'testsuite' else root.findall('testsuite')
+    return [root] if root.tag == 'testsuite' else root.findall('testsuite')
+
+
+def count(path, suites=None):
+    """Return (tests, failures, errors, skipped, failed) of one JUnit XML file (or of its
+    suites_of, if read already); failed: a (name, lines why) per failed or errored test case."""
+    if suites is None:
+        suites = suites_of(path)
     tests = failures = errors = skipped = 0
     failed = []
     for suite in suites:
@@ -79,11 +85,10 @@ def pytest_line(results_dir, package):
     if not os.path.exists(path):
         return 'pytest %s: no result file (%s)' % (package, path)
     try:
-        tests, failures, errors, skipped, _ = count(path)
-        root = ET.parse(path).getroot()
+        suites = suites_of(path)
     except ET.ParseError as exc:
         return 'pytest %s: unreadable result file %s: %s' % (package, path, exc)
-    suites = [root] if root.tag == 'testsuite' else root.findall('testsuite')
+    tests, failures, errors, skipped, _ = count(path, suites)
     seconds = sum(float(suite.get('time') or 0.0) for suite in suites)
     parts = ['%d passed' % (tests - failures - errors - skipped)]
     parts += ['%d %s' % (n, what) for n, what in ((failures, 'failed'), (errors, 'errors'),

@@ -253,10 +253,12 @@ def skin_colour_distance(image, detection, u, v, part=None):
     return np.linalg.norm(_chromaticity(_pixels(image, u, v)) - skin, axis=1)
 
 
-def virtual_image_factor(du, dv, radius_px, max_sin=SPECULAR_MAX_SIN):
+def virtual_image_factor(du, dv, radius_px, max_sin=SPECULAR_MAX_SIN, share=1.0):
     """Per highlight pixel at (du, dv) px from the circle's centre (radius radius_px): k such
     that the fruit's centre lies k R beyond the depth at which a horizontal stereo pair ranges
-    the light's virtual image there (module docstring; 1/2 at the centre)."""
+    the light's virtual image there (module docstring; 1/2 at the centre). share < 1: the
+    depth `share` of the way from the skin (the mirror point, R cos theta in front of the
+    centre) to that virtual image (highlight_factor)."""
     du = np.asarray(du, dtype=np.float64)
     dv = np.asarray(dv, dtype=np.float64)
     off = np.hypot(du, dv)
@@ -265,18 +267,14 @@ def virtual_image_factor(du, dv, radius_px, max_sin=SPECULAR_MAX_SIN):
     # cos^2 of the angle between the image rows and the plane of incidence (any, at the centre)
     cos2_phi = np.where(off > 1e-9, du * du / np.maximum(off * off, 1e-18), 1.0)
     focal_h = 0.5 / (cos2_phi / cos_t + (1.0 - cos2_phi) * cos_t)     # over R
-    return cos_t - focal_h
+    return cos_t - share * focal_h
 
 
 def highlight_factor(du, dv, radius_px, share=VIRTUAL_IMAGE_SHARE, max_sin=SPECULAR_MAX_SIN):
     """Per highlight pixel: k such that the fruit's centre lies k R beyond the depth at which
-    block matching ranges that pixel, `share` of the way from the skin (the mirror point,
-    R cos theta in front of the centre) to the light's virtual image (virtual_image_factor)."""
-    du = np.asarray(du, dtype=np.float64)
-    dv = np.asarray(dv, dtype=np.float64)
-    sin_t = np.minimum(np.hypot(du, dv) / float(radius_px), max_sin)
-    cos_t = np.sqrt(1.0 - sin_t * sin_t)
-    return cos_t - share * (cos_t - virtual_image_factor(du, dv, radius_px, max_sin))
+    block matching ranges that pixel, `share` of the way from the skin to the light's virtual
+    image (virtual_image_factor)."""
+    return virtual_image_factor(du, dv, radius_px, max_sin, share)
 
 
 def centre_distances(t, lateral, sin_a, glint=None, factor=0.5):
