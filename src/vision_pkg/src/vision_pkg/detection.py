@@ -104,8 +104,10 @@ DEFAULTS = {
     'bridge_px': 15,            # larger closing of ripe colours through green or dark pixels only
     'bridge_val_max': 90,       # ... dark = HSV value up to this
     'merge_score_diff': 0.25,   # fragments of one fruit: at most this ripeness-score apart
-    'refit_radius': 1.3,        # a ripe part too thin for its circle: refit at most this x its
-                                # inscribed radius (a fruit in front of another, one peak)
+    'refit_fill': 0.5,          # a ripe part filling less than this of its circle is too thin
+                                # for it (at min_fill and below it would be refused) ...
+    'refit_radius': 1.3,        # ... and is refitted at most this x its inscribed radius (a
+                                # fruit in front of another, one peak; a wide fruit's flat arc)
     'max_residual_refit': 0.03,  # ... when that circle follows its arc this well (median / r)
     'min_front_outline': 0.5,   # ... and when that much of its circle is the region's outline
     'max_shared_part': 0.5,     # a strict-pass fruit with more of its visible part inside the

@@ -252,11 +252,13 @@ class RegionSplitter(object):
             residual = circle[3] if len(circle) > 3 else 1.0
             if r < r_min or (r > r_max and strict):
                 continue
-            if not strict and (area < p['min_fill'] * math.pi * r * r or r > r_max):
+            if not strict and (area < p['refit_fill'] * math.pi * r * r or r > r_max):
                 # a circle far larger than the part: the gentle outline of two fruit, one in
                 # front of the other, in one part (one distance-transform peak between them)
                 # fits a circle around both; the front fruit's own arc has about the radius of
-                # the part's inscribed circle
+                # the part's inscribed circle. (So does a wide fruit half behind another: the
+                # flat bottom arc of its outline, with the other's, fits a circle far too
+                # large that still holds a third of the part.)
                 refit = self._fit_part(part, outer, float(cv2.distanceTransform(
                     part.astype(np.uint8), cv2.DIST_L2, 5).max()), r_high=p['refit_radius'])
                 if refit is not None and refit[3] <= p['max_residual_refit']:
