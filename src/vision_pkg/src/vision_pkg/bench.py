@@ -33,6 +33,10 @@ visible fraction is >= --min-visible and its radius at 1024 wide >= the detector
 min_radius_px, otherwise "don't care" as above. Ripe = stage red. The same figures as on
 renders (no 3D), plus detection precision and recall per stage (a detection graded s that
 matches a care fruit of stage s is a true positive of s) and over all stages (any fruit).
+With --photo-variants the photos are run again under photometric variants of themselves
+(bench_photos.PHOTO_VARIANTS: white balance casts, exposure, gamma, JPEG, blur), a line of
+ripe-fruit figures each, then their mean and lowest ripe F1: seven photos are few, and a change
+that holds across the variants is less likely tuned to their pixels than to the fruit.
 
 This module runs the two benchmarks and holds the command line; its parts (re-exported here):
 bench_frames (knob sweep, render cache, ground truth), bench_metrics (IoU, matching,
@@ -52,8 +56,8 @@ from vision_pkg.bench_config import _package_dir, load_detector, load_stereo_par
 from vision_pkg.bench_frames import SWEEP, render_frames, silhouette_box  # noqa: F401
 from vision_pkg.bench_metrics import (IOU_MIN, RIPE, Evaluation, _pct, _ratio, clip_box,  # noqa: F401
                                       iou, match)
-from vision_pkg.bench_photos import (STAGE_BY_NAME, LabelError, default_photo_dir,  # noqa: F401
-                                     load_labels)
+from vision_pkg.bench_photos import (PHOTO_VARIANTS, STAGE_BY_NAME, LabelError,  # noqa: F401
+                                     default_photo_dir, load_labels, photo_variant)
 from vision_pkg.detection import STAGE_NAMES, STAGE_RED, TomatoDetector, stage_of  # noqa: F401
 
 
@@ -132,8 +136,21 @@ def run(args, log=print):
 
 
 # ------------------------------------------------------------------------------ real photos
+def _photo_truth(labels, scale, width, height, detector, min_visible):
+    """Ground truth of one photo scaled by `scale` (Evaluation.add's gts)."""
+    gts = []
+    for f in labels:
+        u, v, r = f['u'] * scale, f['v'] * scale, f['r'] * scale
+        gts.append(dict(box=clip_box([u - r, v - r, u + r, v + r], width, height),
+                        stage=f['stage'], id=f['id'], care=f['visible'] >= min_visible and
+                        r >= detector.min_radius_input(width)))
+    return gts
+
+
 def run_photos(args, log=print):
-    """Labelled real photos: detection and grading figures, or None when there are none."""
+    """Labelled real photos: detection and grading figures, or None when there are none.
+    With args.photo_variants, also the ripe-fruit figures of every photometric variant
+    (bench_photos.PHOTO_VARIANTS), in figures['variants'] as {name: figures}."""
     photo_dir = args.photos or default_photo_dir()
     labels_path = args.labels or os.path.join(_package_dir(), 'data', 'real_tomato_photos.yaml')
     if not photo_dir or not os.path.isdir(photo_dir):
@@ -146,6 +163,7 @@ def run_photos(args, log=print):
     detector.detect(np.zeros((768, 1024, 3), np.uint8))
     ev = Evaluation(args.min_ripeness)
     missing = []
+    photos = []          # (name, scaled image, ground truth)
     for name in sorted(labels):
         image = cv2.imread(os.path.join(photo_dir, name))
         if image is None:
@@ -154,12 +172,8 @@ def run_photos(args, log=print):
         s = args.photo_width / float(image.shape[1])
         image = cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         h, w = image.shape[:2]
-        gts = []
-        for f in labels[name]:
-            u, v, r = f['u'] * s, f['v'] * s, f['r'] * s
-            gts.append(dict(box=clip_box([u - r, v - r, u + r, v + r], w, h), stage=f['stage'],
-                            id=f['id'], care=f['visible'] >= args.min_visible and
-                            r >= detector.min_radius_input(w)))
+        gts = _photo_truth(labels[name], s, w, h, detector, args.min_visible)
+        photos.append((name, image, gts))
         times = []
         for _ in range(args.repeat):
             dets, ms = _timed_detect(detector, image)
@@ -180,7 +194,41 @@ def run_photos(args, log=print):
         ev.frames, photo_dir, args.photo_width,
         '; missing: %s' % ', '.join(missing) if missing else '',
         '; unlabelled (not used): %s' % ', '.join(others) if others else ''))
-    return ev.report(log, args.verbose, args.min_visible)
+    figures = ev.report(log, args.verbose, args.min_visible)
+    if getattr(args, 'photo_variants', False) and photos:
+        figures['variants'] = run_photo_variants(detector, photos, args.min_ripeness, log,
+                                                 args.verbose)
+    return figures
+
+
+def run_photo_variants(detector, photos, min_ripeness, log=print, verbose=False):
+    """Ripe-fruit figures of the photos under every photometric variant of PHOTO_VARIANTS
+    (one detection per photo, no timing): a line per variant, then the mean and the lowest
+    ripe F1. photos: [(name, scaled BGR image, ground truth)]. Returns {name: figures}."""
+    log('== real photos under photometric variants (ripe fruit; stage accuracy of the fruit '
+        'found):')
+    out = {}
+    for name, (kind, value) in PHOTO_VARIANTS:
+        ev = Evaluation(min_ripeness)
+        for photo, image, gts in photos:
+            varied = photo_variant(image, kind, value)
+            dets = detector.detect(varied)
+            ev.add(photo, dets, _det_boxes(dets, varied.shape[1], varied.shape[0]), gts, 0.0)
+        fig = ev.figures()
+        out[name] = fig
+        log('  %-16s ripe F1 %.3f (P %.3f R %.3f; TP %d FP %d FN %d), stage accuracy %.3f' % (
+            name, fig['f1'], fig['precision'], fig['recall'], fig['tp'], fig['fp'], fig['fn'],
+            fig['stage_accuracy']))
+        if verbose:
+            for line in ev.fp_log:
+                log('    FP %s' % line)
+            for line in ev.fn_log:
+                log('    FN %s' % line)
+    f1 = [fig['f1'] for fig in out.values()]
+    worst = min(out, key=lambda k: out[k]['f1'])
+    log('  ripe F1 over the %d variants: mean %.3f, lowest %.3f (%s)' % (
+        len(f1), float(np.mean(f1)), out[worst]['f1'], worst))
+    return out
 
 
 def main(argv):
@@ -207,6 +255,9 @@ def main(argv):
     parser.add_argument('--annotate-render', default=None, metavar='PNG',
                         help='write the detections on the first render with >= 5 fruit here '
                              '(when the file does not exist yet)')
+    parser.add_argument('--photo-variants', action='store_true',
+                        help='also run the photos under photometric variants (white balance '
+                             'casts, exposure, gamma, JPEG, blur) and print their ripe F1')
     parser.add_argument('-v', '--verbose', action='store_true', help='list every FP and FN')
     args = parser.parse_args(argv)
     if args.frames > 0:

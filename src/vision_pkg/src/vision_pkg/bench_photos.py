@@ -1,11 +1,14 @@
 """The detection benchmark's labelled real photographs, rospy-free: the label YAML loader (a circle
 u, v, r, a stage and the visible fraction per fruit; a malformed file is a LabelError naming the
-field) and the default photo folder (../shared/data/real-tomato-photos beside the workspace).
+field), the default photo folder (../shared/data/real-tomato-photos beside the workspace) and
+the photometric variants of a photo that the robustness figures use (--photo-variants).
 Used by vision_pkg.bench.
 """
 import math
 import os
 
+import cv2
+import numpy as np
 import yaml
 
 from vision_pkg.bench_config import _package_dir
@@ -60,3 +63,43 @@ def default_photo_dir():
     workspace = os.path.abspath(os.path.join(_package_dir(), '..', '..'))
     path = os.path.join(os.path.dirname(workspace), 'shared', 'data', 'real-tomato-photos')
     return path if os.path.isdir(path) else None
+
+
+#: Photometric variants of every photo for the robustness figures (bench_detection
+#: --photo-variants): what another camera, its settings or the light do to the same scene.
+#: (name, (kind, value)); gains are (B, G, R) factors.
+PHOTO_VARIANTS = (
+    ('as taken', ('none', None)),
+    ('warm cast', ('gains', (0.75, 0.95, 1.2))),        # incandescent / sodium, white balance off
+    ('cool cast', ('gains', (1.2, 1.0, 0.8))),          # shade, overcast sky
+    ('LED pink cast', ('gains', (1.15, 0.8, 1.15))),    # red/blue plant-factory LEDs
+    ('green cast', ('gains', (0.9, 1.15, 0.9))),        # light through the canopy
+    ('under-exposed', ('exposure', 0.6)),
+    ('over-exposed', ('exposure', 1.3)),
+    ('gamma 0.8', ('gamma', 0.8)),
+    ('gamma 1.25', ('gamma', 1.25)),
+    ('JPEG quality 40', ('jpeg', 40)),
+    ('out of focus', ('blur', 1.5)),                    # Gaussian sigma [px at 1024 wide]
+)
+
+
+def photo_variant(image, kind, value):
+    """A BGR uint8 image under one photometric variant (PHOTO_VARIANTS), as a new uint8 image
+    of the same size; kind 'none' returns the image itself."""
+    if kind == 'none':
+        return image
+    if kind == 'gains':
+        return np.clip(image.astype(np.float32) * np.float32(value), 0, 255).astype(np.uint8)
+    if kind == 'exposure':
+        return np.clip(image.astype(np.float32) * float(value), 0, 255).astype(np.uint8)
+    if kind == 'gamma':
+        lut = np.clip(np.round(255.0 * (np.arange(256) / 255.0) ** float(value)), 0, 255)
+        return cv2.LUT(image, lut.astype(np.uint8))
+    if kind == 'jpeg':
+        ok, data = cv2.imencode('.jpg', image, [cv2.IMWRITE_JPEG_QUALITY, int(value)])
+        if not ok:
+            raise ValueError('JPEG encoding failed')
+        return cv2.imdecode(data, cv2.IMREAD_COLOR)
+    if kind == 'blur':
+        return cv2.GaussianBlur(image, (0, 0), float(value))
+    raise ValueError('unknown photo variant %r' % (kind,))
