@@ -171,6 +171,30 @@ def test_same_fruit_under_three_white_balances_grades_the_same_stage():
         assert set(stages[k].values()) == {stage_of(fruit.ripeness)}, (fruit.ripeness, stages[k])
 
 
+@pytest.mark.parametrize('exposure', [0.7, 0.5, 0.4])
+def test_an_under_exposed_scene_is_brought_to_the_white_references_level(exposure):
+    # the four stages under white film, as taken and with the exposure cut: with `wb_level`
+    # the gains also bring the film (the scene's white reference) to that level, so the
+    # fruit keep their stage and score (at 0.4 without it the green fruit is lost in the dark)
+    fruits = [scene.Fruit(-0.15, 0.05, 0.55, 0.035, 0.05), scene.Fruit(-0.05, 0.05, 0.55, 0.035, 0.4),
+              scene.Fruit(0.05, 0.05, 0.55, 0.035, 0.6), scene.Fruit(0.15, 0.05, 0.55, 0.035, 0.95)]
+    image, _, _ = scene.render(fruits, backdrop_depth=0.95, film_above=-0.1)
+    dark = np.clip(image.astype(np.float32) * exposure, 0, 255).astype(np.uint8)
+    detector = TomatoDetector(wb_level=220.0)
+    gains = detector.white_gains(dark)
+    assert np.all(gains > 1.5) and np.all(gains <= detector.params['wb_max_gain']), gains
+    bright = detector.detect(image)
+    for fruit in fruits:
+        det = max(detector.detect(dark), key=lambda d: _match(d, fruit))
+        ref = max(bright, key=lambda d: _match(d, fruit))
+        assert _match(det, fruit) >= 0.5, (exposure, fruit.ripeness, det)
+        assert det.stage == stage_of(fruit.ripeness), (exposure, fruit.ripeness, det)
+        assert det.score == pytest.approx(ref.score, abs=0.03), (exposure, det, ref)
+    # off (the default of TomatoDetector; config/image_processing.yaml turns it on for the
+    # stereo head): the gains keep the brightness
+    assert TomatoDetector().white_gains(dark).mean() == pytest.approx(1.0)
+
+
 def test_white_gains_undo_a_cast_and_ignore_a_scene_without_white():
     image, _, _ = scene.render([scene.Fruit(0.0, 0.05, 0.55, 0.035, 0.95)], backdrop_depth=0.95,
                                film_above=-0.1, gains=WHITE_BALANCES['led'])

@@ -69,6 +69,10 @@ DEFAULTS = {
     'wb_max_green': 0.36,       # ... and green chromaticity at most this (no light is green)
     'wb_min_fraction': 0.003,   # fewer candidates (share of the pixels): no white reference
     'wb_max_gain': 2.0,         # per-channel gain limit
+    'wb_level': 0.0,            # > 0: the gains also bring the white reference up to this
+                                # level (0..255; never down, at most wb_max_gain): exposure
+                                # constancy, so "shaded" and dark thresholds mean the same in an
+                                # under-exposed frame (0: the gains keep the mean brightness)
     # ripe colours on the balanced image: OpenCV hue (0..180) <= hue_max or >= hue_wrap
     'hue_max': 22,
     'hue_wrap': 160,
@@ -208,7 +212,8 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         the box. The reference is the mean of the brightest `wb_top_fraction` of them
         (a sample of every 4th pixel in each direction); with fewer than `wb_min_fraction` of
         the sample as candidates there is no white reference and the gains are 1. Gains keep
-        the mean brightness and stay within [1 / wb_max_gain, wb_max_gain]."""
+        the mean brightness, or with `wb_level` > 0 raise the balanced reference to that level
+        when it is darker, and stay within [1 / wb_max_gain, wb_max_gain]."""
         p = self.params
         ones = np.ones(3, dtype=np.float64)
         if not p['white_balance']:
@@ -236,6 +241,9 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         gains = (ref.sum() / 3.0) / np.maximum(ref, 1.0)
         gains /= gains.mean()
         bound = float(p['wb_max_gain'])
+        level = float(p['wb_level'])
+        if level > 0:
+            gains *= min(max(level / max(float(ref.dot(gains)) / 3.0, 1.0), 1.0), bound)
         return np.clip(gains, 1.0 / bound, bound)
 
     def balance(self, bgr):
