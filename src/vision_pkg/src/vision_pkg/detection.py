@@ -108,7 +108,7 @@ DEFAULTS = {
     'bridge_px': 15,            # larger closing of ripe colours through green or dark pixels only
     'bridge_val_max': 90,       # ... dark = HSV value up to this
     'merge_score_diff': 0.25,   # fragments of one fruit: at most this ripeness-score apart
-    'refit_fill': 0.5,          # a ripe part filling less than this of its circle is too thin
+    'refit_fill': 0.7,          # a ripe part filling less than this of its circle is too thin
                                 # for it (at min_fill and below it would be refused) ...
     'refit_radius': 1.3,        # ... and is refitted at most this x its inscribed radius (a
                                 # fruit in front of another, one peak; a wide fruit's flat arc)
