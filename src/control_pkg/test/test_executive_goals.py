@@ -92,3 +92,43 @@ def test_held_fruit_relocated_to_one_a_little_smaller_within_the_radius_toleranc
     assert moved.why == 'moved' and moved.target.radius == pytest.approx(0.0289)
     much_smaller = tomato(8, (0.437, 0.1, 1.0), 0.024)
     assert goals.relocate(held, [much_smaller], 0.03, radius_tolerance=0.1).why == 'smaller'
+
+
+def _along(a, b, k):
+    return tuple(x + k * y for x, y in zip(a, b))
+
+
+def test_a_smaller_held_fruit_corrects_the_depth_along_the_view_ray_only():
+    """low_light f01_0 (twelfth session): the first scan ranged the dim fruit 15 mm too far
+    (block matching mismatched its whole skin); seen again 17 mm nearer with a smaller circle
+    (29.5 against 31.3 mm), it was kept where the first scan put it and the shear closed 12 mm
+    beside the peduncle. The view ray says which part of the difference to trust."""
+    eye = (-0.05, 0.0, 1.0)                      # the stereo head's right eye in base_link
+    first = (0.50, -0.13, 0.83)
+    norm = math.sqrt(sum((f - e) ** 2 for f, e in zip(first, eye)))
+    ray = tuple((f - e) / norm for f, e in zip(first, eye))
+    across = (ray[1], -ray[0], 0.0)
+    scale = math.sqrt(sum(c * c for c in across))
+    across = tuple(c / scale for c in across)    # a unit vector square to the ray
+    held = tomato(5, first, 0.0313)
+    # the same fruit 15 mm nearer along the ray, its circle shrunk by the sleeve (2 mm smaller
+    # radius: its centre a further 2 mm nearer) and shifted 4 mm across the view by it
+    seen = tomato(9, _along(_along(_along(first, ray, -0.015), ray, -0.002), across, 0.004),
+                  0.0293)
+    assert goals.relocate(held, [seen], 0.03).why == 'smaller', 'without the eye, as before'
+    found = goals.relocate(held, [seen], 0.03, viewpoint=eye)
+    assert found.why == 'depth' and found.shift == pytest.approx(-0.015, abs=1e-9)
+    assert xyz(found.target.pick_point) == pytest.approx(_along(first, ray, -0.015), abs=1e-9)
+    assert found.target.radius == pytest.approx(0.0313) and found.target.id == 5
+    assert found.radius == pytest.approx(0.0293)
+    assert xyz(held.pick_point) == first, 'the first estimate itself is not changed'
+    # at the same depth and only moved across the view (the occluder's doing): it stays put
+    beside = tomato(9, _along(_along(first, ray, -0.002), across, 0.006), 0.0293)
+    kept = goals.relocate(held, [beside], 0.03, viewpoint=eye)
+    assert kept.why == 'depth' and kept.shift == pytest.approx(0.0, abs=1e-9)
+    assert xyz(kept.target.pick_point) == pytest.approx(first, abs=1e-9)
+    # a larger circle replaces the estimate whole, as before
+    bigger = tomato(9, _along(first, across, 0.006), 0.033)
+    assert goals.relocate(held, [bigger], 0.03, viewpoint=eye).why == 'moved'
+    # an eye at the fruit gives no ray: as without one
+    assert goals.relocate(held, [seen], 0.03, viewpoint=first).why == 'smaller'

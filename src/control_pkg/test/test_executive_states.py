@@ -254,3 +254,20 @@ def test_a_fruit_cut_and_held_when_the_stop_came_is_recorded_failed_at_once():
     assert context.checkpoint.current.phase == checkpoint_lib.PHASE_PLACE  # a restart places it
     _next_target(context, [_tomato(8, 0.11)])
     assert context.recorder.current.target_id == 8 and context.recorder.current.attempts == 1
+
+
+def test_the_stereo_eye_comes_from_the_robot_geometry_and_turns_with_the_waist():
+    import math
+    import os
+    import pytest
+    from motion_pkg.kinematics import RobotGeometry
+    context = _context([])
+    assert context.stereo_eye() is None, 'no geometry: no eye (the held fruit keeps its estimate)'
+    context.geometry = RobotGeometry.from_yaml(os.path.join(
+        os.path.dirname(__file__), '..', '..', 'harvest_description', 'config', 'robot.yaml'))
+    head = context.geometry.stereo_xyz                  # waist_link -> stereo_link (right eye)
+    assert context.stereo_eye() == pytest.approx(head), 'waist unknown: at 0'
+    context.set_joints(['waist_joint'], [0.5])
+    c, s = math.cos(0.5), math.sin(0.5)
+    assert context.stereo_eye() == pytest.approx(
+        (c * head[0] - s * head[1], s * head[0] + c * head[1], head[2]))

@@ -25,6 +25,7 @@ class _Callbacks(object):
         self.approach = float(cfg['left_approach_standoff'])
         self.relocate_tolerance = float(cfg['relocate_tolerance'])
         self.relocate_radius_tolerance = float(cfg['relocate_radius_tolerance'])
+        self.relocate_depth = bool(cfg['relocate_depth_when_smaller'])
         self.components = list(cfg['self_test_components'])
         self.skip_tolerance = float(cfg['resume_skip_tolerance'])
 
@@ -207,7 +208,8 @@ class _Callbacks(object):
         t = ud.target
         tomatoes = result.tomatoes.tomatoes if result is not None and result.success else None
         found = goals.relocate(t, tomatoes, self.relocate_tolerance,
-                               self.relocate_radius_tolerance)
+                               self.relocate_radius_tolerance,
+                               self.context.stereo_eye() if self.relocate_depth else None)
         if found.why == 'not-found':
             rospy.loginfo('executive: held fruit not found again within %.0f mm; keeping its '
                           'first estimate', self.relocate_tolerance * 1e3)
@@ -215,6 +217,12 @@ class _Callbacks(object):
             rospy.loginfo('executive: held fruit seen again %.1f mm from where it was expected but '
                           'smaller (radius %.1f mm, first scan %.1f mm); keeping its first estimate',
                           found.distance * 1e3, found.radius * 1e3, t.radius * 1e3)
+        elif found.why == 'depth':
+            rospy.loginfo('executive: held fruit seen again %.1f mm from where it was expected but '
+                          'smaller (radius %.1f mm, first scan %.1f mm); its first estimate moved '
+                          '%+.1f mm along the stereo head\'s view ray', found.distance * 1e3,
+                          found.radius * 1e3, t.radius * 1e3, found.shift * 1e3)
+            ud.target = found.target
         elif found.why == 'moved':
             rospy.loginfo('executive: held fruit located again %.1f mm from where it was expected, '
                           'radius %.1f mm (first scan %.1f mm)', found.distance * 1e3,

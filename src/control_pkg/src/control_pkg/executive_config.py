@@ -75,4 +75,7 @@ def merged_config(overrides, defaults=None):
     rtol = cfg['relocate_radius_tolerance']
     if not isinstance(rtol, (int, float)) or not 0.0 <= float(rtol) < 1.0:
         raise ValueError('relocate_radius_tolerance must be a number in [0, 1), got %r' % (rtol,))
+    if not isinstance(cfg['relocate_depth_when_smaller'], bool):
+        raise ValueError('relocate_depth_when_smaller must be true or false, got %r' % (
+            cfg['relocate_depth_when_smaller'],))
     return cfg

@@ -196,20 +196,30 @@ def dropped_on_the_way(result):
 
 class Relocation(object):
     """What the look at the held fruit decided: `target` is the new estimate or None (keep the
-    first one), `why` one of: no-result, no-estimate, not-found, smaller, moved."""
+    first one), `why` one of: no-result, no-estimate, not-found, smaller, depth, moved; for
+    `depth`, `shift` is the move along the stereo head's view ray (m, + = farther)."""
 
-    def __init__(self, why, target=None, distance=None, radius=None):
+    def __init__(self, why, target=None, distance=None, radius=None, shift=None):
         self.why = why
         self.target = target
         self.distance = distance
         self.radius = radius
+        self.shift = shift
 
 
-def relocate(target, tomatoes, tolerance, radius_tolerance=0.0):
+def relocate(target, tomatoes, tolerance, radius_tolerance=0.0, viewpoint=None):
     """The held fruit among the tomatoes of a scan: the nearest one within `tolerance` of where
     it is expected replaces the first estimate unless it is smaller (occlusion only shrinks a
     fitted circle, so the first view then saw more of it) by more than `radius_tolerance` of
-    the first radius (stereo radii of one fruit differ by that much from view to view)."""
+    the first radius (stereo radii of one fruit differ by that much from view to view).
+
+    viewpoint: (x, y, z) of the stereo head's right eye in the target's frame, or None. With
+    it, a smaller fruit still corrects the first estimate's depth: an occluder (the suction
+    sleeve, a leaf) moves a circle's centre across the view, while block matching errs along
+    the view ray (a dim fruit's whole skin mismatched: 15 mm too far, the cut missed). So the
+    first estimate moves along its view ray to the depth the new look implies, with the first
+    radius (a centre lies a radius behind the surface the stereo head ranged, and the smaller
+    circle's radius put it that much nearer), and keeps its place across the view."""
     if tomatoes is None:
         return Relocation('no-result')
     frame = target.pick_point.header.frame_id
@@ -227,7 +237,18 @@ def relocate(target, tomatoes, tolerance, radius_tolerance=0.0):
     if best is None:
         return Relocation('not-found')
     if best.radius < (1.0 - radius_tolerance) * target.radius:
-        return Relocation('smaller', distance=best_d, radius=best.radius)
+        ray = None if viewpoint is None else [e - v for e, v in zip(expected, viewpoint)]
+        norm = math.sqrt(sum(c * c for c in ray)) if ray is not None else 0.0
+        if not norm > 1e-6 or not math.isfinite(norm):
+            return Relocation('smaller', distance=best_d, radius=best.radius)
+        ray = [c / norm for c in ray]
+        seen = located(best, frame)
+        shift = sum((s + r * (target.radius - best.radius) - e) * r
+                    for s, r, e in zip(seen, ray, expected))
+        deeper = copy.deepcopy(target)
+        p = deeper.pick_point.point
+        p.x, p.y, p.z = (e + shift * r for e, r in zip(expected, ray))
+        return Relocation('depth', deeper, best_d, best.radius, shift)
     moved = copy.deepcopy(target)
     moved.pick_point = best.pick_point
     moved.radius = best.radius

@@ -124,6 +124,7 @@ class TaskPlanner(EmergencyStopAndResume):
         self.resuming = resumed is not None
         if resumed is not None:
             self._prepare_resume(resumed)
+        self._load_geometry()
         if self.config['schedule'] == mission_lib.SCHEDULE_PIPELINED:
             self._setup_pipelined()
         self.sm = executive.build_state_machine(self.context, self.estop, self.resume)
@@ -240,18 +241,23 @@ class TaskPlanner(EmergencyStopAndResume):
     def publish_checkpoint(self, snap):
         self._checkpoint_pub.publish(snapshot_to_msg(snap, rospy.Time.now()))
 
-    def _setup_pipelined(self):
-        """The pipelined schedule's guard needs the robot's geometry (motion_pkg's kinematics,
-        robot.yaml) and where the arms are (joint_states)."""
+    def _load_geometry(self):
+        """The robot's geometry (motion_pkg's kinematics, robot.yaml): the stereo head's eye
+        for the look at the held fruit, and the pipelined schedule's collision guard."""
         try:
             from motion_pkg.kinematics import RobotGeometry
             import rospkg
             path = rospy.get_param('~robot_description_yaml', '') or os.path.join(
                 rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml')
             self.context.geometry = RobotGeometry.from_yaml(path)
-        except Exception as exc:  # noqa: BLE001 - without it nothing overlaps, the mission runs
-            rospy.logerr('task_planner: no robot geometry for the pipelined schedule (%s): every '
-                         'step runs in the paper order', exc)
+        except Exception as exc:  # noqa: BLE001 - without it the mission runs, see below
+            rospy.logerr('task_planner: no robot geometry (%s): a smaller held fruit keeps its '
+                         'first estimate, and in the pipelined schedule every step runs in the '
+                         'paper order', exc)
+
+    def _setup_pipelined(self):
+        """The pipelined schedule's guard needs the robot's geometry (_load_geometry) and
+        where the arms are (joint_states)."""
         rospy.Subscriber(names.JOINT_STATES, JointState, self._joints_cb, queue_size=10)
         rospy.loginfo('task_planner: pipelined schedule (arm moves %s)',
                       'concurrent' if self.config['concurrent_arm_moves'] else 'taking turns')

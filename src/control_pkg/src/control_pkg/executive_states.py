@@ -42,8 +42,9 @@ class MissionContext(object):
         self.lock = threading.Lock()
         self.scene = []            # (id, (x, y, z), radius) of every located tomato at this point
         self.gone = set()          # ids picked since that scan
-        # the pipelined schedule (executive_pipelined.py): motion_pkg's robot geometry for the
-        # collision check of overlapping moves, the arms' joint states, the turns of the moves
+        # motion_pkg's robot geometry: the stereo head's eye (stereo_eye) and, in the pipelined
+        # schedule (executive_pipelined.py), the collision check of overlapping moves; that
+        # schedule also keeps the arms' joint states and the turns of the moves
         self.geometry = None
         self.gate = None
         self._joints = {}
@@ -78,6 +79,18 @@ class MissionContext(object):
         with self.lock:
             value = self._joints.get('waist_joint')
         return None if value is None else float(value)
+
+    def stereo_eye(self):
+        """(x, y, z) of the stereo head's right eye (stereo_right_optical, where its pick
+        points' view rays start) in the base frame, from the robot geometry with the waist
+        from joint_states (0 until known: the head sits 5 cm off the waist's axis, so a turn
+        moves it by a few millimetres); None without the geometry."""
+        if self.geometry is None:
+            return None
+        poses = self.geometry.frame_transforms({'waist_joint': self.waist() or 0.0})
+        base = poses['base_link']
+        eye = poses['stereo_right_optical'][:3, 3] - base[:3, 3]
+        return tuple(float(v) for v in base[:3, :3].T.dot(eye))
 
     def arm_joints(self, arm):
         """(lift, boom, forearm) of arm 'left' / 'right' from joint_states, None until known."""
