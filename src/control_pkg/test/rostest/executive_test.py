@@ -191,6 +191,28 @@ class ExecutiveTest(unittest.TestCase):
         suction = 'end_effector %d' % EndEffectorGoal.SUCTION_ON
         self.assertEqual(sum(1 for g in w.goals if g == suction), 1, w.goals)
 
+    def check_relocate_depth(self):
+        """The look at the held fruit sees it 15 mm nearer along the stereo head's view ray,
+        with a smaller circle, 4 mm to the side: the visual servo is sent to the first
+        estimate moved along that ray only (relocate_depth_when_smaller), and the fruit is
+        picked."""
+        import math
+        from mock_harvest_servers import view_ray
+        w = self.w
+        s = self.start_and_finish()
+        self.assertEqual((s['picked'], s['lost'], s['failed']), (1, 0, 0), s)
+        held = [g for g in w.goals if g.startswith('held_view ')]
+        servo = [g for g in w.goals if g.startswith('visual_servo ')]
+        self.assertEqual((len(held), len(servo)), (1, 1), w.goals)
+        start = [float(v) for v in held[0].split()[1:]]
+        target = [float(v) for v in servo[0].split()[1:]]
+        ray, _ = view_ray(start)
+        shift = float(rospy.get_param('~shift'))
+        for got, want in zip(target, [c + shift * r for c, r in zip(start, ray)]):
+            self.assertAlmostEqual(got, want, delta=1e-5, msg='servo target %s from %s' % (
+                target, start))
+        self.assertGreater(math.sqrt(sum((a - b) ** 2 for a, b in zip(target, start))), 0.014)
+
     def check_pipelined(self):
         """schedule pipelined: the same targets end the same way as in the paper's flow, the
         overlaps ran as Concurrence containers, and the move server never had two goals at once

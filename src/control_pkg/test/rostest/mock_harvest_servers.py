@@ -17,6 +17,12 @@ Params:
       [target_id, y]; tomatoes at x 0.5, z 0.9 as the scan puts them) until a finished checkpoint of
       that mission comes; none: get_checkpoint finds nothing
   ~records (list of [picking_point, target_id, y], optional): get_mission_records' picked records
+  ~held_view (dict, optional): {shift, radius, across} (m): the look at the held fruit (a scan of
+      picking point -1) sees the fruit where the suction arm's last kinematics goal put it,
+      `shift` farther along the stereo head's view ray (robot.yaml's right eye, waist 0), with
+      a circle of `radius` (its centre that much nearer than the first estimate's radius, as a
+      smaller circle ranges it) and `across` to the side (square to the ray, horizontal);
+      noted "held_view x y z" (the suction target it started from); none: it sees nothing
 Subscribes to mock/hold_moves (std_msgs/Bool): while the last one said true, a MoveRobot goal of
 the one-goal server waits (preemptable) before it starts its move_duration, so a test can look
 at the mission while one state stays active; notes "hold_moves on|off" on mock/goals.
@@ -51,6 +57,8 @@ class MockServers(object):
         self.points = int(rospy.get_param('~points', 2))
         rospy.set_param('/track/picking_points', [0.6 * i for i in range(self.points)])
         self.targets = {int(k): v for k, v in rospy.get_param('~targets', {}).items()}
+        self.held_view = rospy.get_param('~held_view', None)
+        self.right_target = None     # (x, y, z) of the suction arm's last kinematics goal
         self.missing = set(rospy.get_param('~missing', []))
         self.move_duration = float(rospy.get_param('~move_duration', 0.05))
         self.per_arm_moves = bool(rospy.get_param('~per_arm_moves', False))
@@ -149,6 +157,20 @@ class MockServers(object):
 
     def scan(self, goal):
         result = TomatoScanResult(success=True)
+        if goal.picking_point == -1 and self.held_view and self.right_target is not None:
+            self.note('held_view %.6f %.6f %.6f' % self.right_target)
+            ray, across = view_ray(self.right_target)
+            v = self.held_view
+            along = float(v['shift']) - (0.03 - float(v['radius']))
+            t = Tomato(id=99, radius=float(v['radius']), ripeness_stage=Tomato.STAGE_RED,
+                       ripeness_score=0.9, pickable=True, pick_order=0)
+            t.pick_point.header.frame_id = 'base_link'
+            t.pick_point.point = Point(*[c + along * r + float(v['across']) * a
+                                         for c, r, a in zip(self.right_target, ray, across)])
+            result.tomatoes.tomatoes.append(t)
+            result.pickable_count = 1
+            self.tomato_scan_server.set_succeeded(result)
+            return
         order = 0
         for spec in self.targets.get(goal.picking_point, []):
             key = (goal.picking_point, int(spec['id']))
@@ -175,6 +197,8 @@ class MockServers(object):
         result = KinematicsResult()
         if not goal.arm:
             self.right_solved[y] = self.right_solved.get(y, 0) + 1
+            p = goal.target.point
+            self.right_target = (p.x, p.y, p.z)
         refused = not goal.arm and spec.get('unreachable_right_later') and self.right_solved[y] > 1
         if spec.get('unreachable') or (goal.arm and spec.get('unreachable_left')) or refused:
             result.reachable = False
@@ -253,13 +277,34 @@ class MockServers(object):
         self.end_effector_server.set_succeeded(EndEffectorResult(success=True, vacuum_ok=goal.command == 1))
 
     def visual_servo(self, goal):
-        spec = self.by_position.get(round(goal.target.point.y, 4), {})
+        p = goal.target.point
+        self.note('visual_servo %.6f %.6f %.6f' % (p.x, p.y, p.z))
+        # the held fruit's estimate may have moved a little (the look at it): the nearest target
+        near = [y for y in self.by_position if abs(y - p.y) < 0.004]
+        spec = self.by_position[min(near, key=lambda y: abs(y - p.y))] if near else {}
         if spec.get('lose'):
             self.visual_servo_server.set_aborted(VisualServoResult(success=False, message='target lost'),
                                                  'target lost')
             return
         self.picked.add((self.point, int(spec.get('id', -1))))
         self.visual_servo_server.set_succeeded(VisualServoResult(success=True, iterations=3, final_error=0.001))
+
+
+def view_ray(point):
+    """(unit ray from the stereo head's right eye to `point`, a horizontal unit vector square
+    to it), base_link, waist 0; the eye from harvest_description's robot.yaml."""
+    import math
+    import os
+    import rospkg
+    from motion_pkg.kinematics import RobotGeometry
+    geometry = RobotGeometry.from_yaml(os.path.join(
+        rospkg.RosPack().get_path('harvest_description'), 'config', 'robot.yaml'))
+    eye = geometry.stereo_xyz                   # waist_link -> the right eye; waist 0
+    ray = [c - e for c, e in zip(point, eye)]
+    norm = math.sqrt(sum(c * c for c in ray))
+    ray = [c / norm for c in ray]
+    side = math.hypot(ray[0], ray[1])
+    return ray, (ray[1] / side, -ray[0] / side, 0.0)
 
 
 if __name__ == '__main__':
