@@ -1,4 +1,5 @@
 """3D pick point from an organized stereo cloud (offline StereoBM on a synthetic pair)."""
+import functools
 import math
 
 import numpy as np
@@ -300,7 +301,7 @@ def _fruit_behind_a_neighbour(back_step=2, front_step=1):
     return cloud, image, det, back_c + offset, front_c + offset
 
 
-def test_a_neighbour_of_the_same_colour_in_front_does_not_take_the_fruits_place():
+def test_a_neighbour_of_the_same_colour_in_front_does_not_take_the_fruits_place(monkeypatch):
     """The neighbour in front has the part's colour and a fruit's radius, and the most points:
     it was taken for the fruit, 70-76 mm too near (long_row f19_3: the suction cup closed on
     air). The fruit's points lie where the part's outline runs along its circle, the
@@ -316,8 +317,11 @@ def test_a_neighbour_of_the_same_colour_in_front_does_not_take_the_fruits_place(
     assert not sectors[localisation.sector_index(-1.0, 0.0)]
     loc = localisation.locate(cloud, det, P_RIGHT, image=image)
     assert np.linalg.norm(loc.centre - truth) < 0.003, loc
-    # without the part's outline (no mask) the largest cluster, the neighbour, is taken
+    # without the part's outline (no mask), and without the rule of a fruit hidden behind
+    # (test_a_fruit_behind_a_neighbour_that_fills_its_whole_circle...), the largest cluster,
+    # the neighbour, is taken
     no_mask = Detection(det.u, det.v, det.radius_px, det.score)
+    _without_the_behind_rule(monkeypatch)
     old = localisation.locate(cloud, no_mask, P_RIGHT, image=image)
     assert np.linalg.norm(old.centre - truth) > 0.05
     assert old.centre[2] < neighbour[2] + 0.02
@@ -343,6 +347,61 @@ def test_a_fruit_in_front_keeps_its_place_over_a_neighbour_behind():
     front_det = Detection(u0, v0, r_px, 0.95, mask=crop.copy(), mask_origin=(cx0, cy0))
     loc = localisation.locate(cloud, front_det, P_RIGHT, image=image)
     assert np.linalg.norm(loc.centre - front) < 0.003, loc
+
+
+def test_a_fruit_behind_a_neighbour_that_fills_its_whole_circle_is_found_behind_it(monkeypatch):
+    """The fruit's part can run along its whole circle (the neighbour in front covers the rest
+    of it): no sector tells them apart, and the neighbour has most points (long_row f19_3
+    behind f19_1 in one of the live cameras' noise frames: 27 mm off, the cup on f19_1's side).
+    A sphere hides everything behind it inside its silhouette, and the neighbour's centre
+    distances tilt across the circle (another sphere): the cluster behind it is the fruit."""
+    cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=3)
+    vv, uu = np.mgrid[0:scene.HEIGHT, 0:scene.WIDTH]
+    disc = np.hypot(uu - det.u, vv - det.v) <= det.radius_px
+    x0, y0 = det.mask_origin
+    h, w = det.mask.shape
+    full = Detection(det.u, det.v, det.radius_px, det.score, mask=disc[y0:y0 + h, x0:x0 + w],
+                     mask_origin=det.mask_origin, mask_scale=1.0)
+    assert localisation.outline_sectors(full).all()
+    pts = localisation.points_on_fruit(cloud, full, P_RIGHT)
+    assert np.sum(pts[:, 2] < 0.56) > len(pts) / 2, 'the neighbour must be most of the points'
+    loc = localisation.locate(cloud, full, P_RIGHT, image=image)
+    assert np.linalg.norm(loc.centre - truth) < 0.003, loc
+    # without the rule the neighbour in front is taken
+    _without_the_behind_rule(monkeypatch)
+    old = localisation.locate(cloud, full, P_RIGHT, image=image)
+    assert np.linalg.norm(old.centre - truth) > 0.02
+
+
+def _without_the_behind_rule(monkeypatch):
+    monkeypatch.setattr(localisation, 'fruit_cluster',
+                        functools.partial(localisation.fruit_cluster, behind_share=None))
+
+
+def test_skin_mismatched_behind_a_fruit_does_not_take_its_place():
+    """Block matching ranges patches of a smooth skin 3-4 cm behind it (renders: a fully
+    visible fruit's 91 points behind its 685). They pass the colour and radius tests and lie
+    behind the fruit, but the fruit's own points give one centre distance across the circle
+    (no tilt): the chosen cluster is the skin, and the patch is not a fruit hidden behind it."""
+    cloud, image, det, truth = _occluded_fruit(behind_depth=0.55, skin_step=2)
+    pts = localisation.points_on_fruit(cloud, det, P_RIGHT)
+    patch = np.abs(pts[:, 2] - 0.55) < 1e-3
+    assert 0.15 * (~patch).sum() < patch.sum() < (~patch).sum()
+    loc = localisation.locate(cloud, det, P_RIGHT, image=image)
+    assert np.linalg.norm(loc.centre - truth) < 0.002, loc
+
+
+def test_surface_tilt_is_zero_on_the_fruits_own_skin_and_large_on_another_sphere():
+    sin_a = 0.06
+    rng = np.random.RandomState(3)
+    offsets = rng.uniform(-0.8, 0.8, size=(300, 2))
+    offsets = offsets[np.hypot(offsets[:, 0], offsets[:, 1]) < 0.8]
+    own = np.full(len(offsets), 0.6) + rng.normal(0.0, 0.0005, len(offsets))
+    assert localisation.surface_tilt(own, offsets, sin_a) < 0.1
+    # a sphere whose centre distance grows by half a radius across the circle's radius
+    other = 0.55 + 0.5 * 0.55 * sin_a * offsets[:, 0]
+    assert localisation.surface_tilt(other, offsets, sin_a) == pytest.approx(0.5, abs=0.01)
+    assert localisation.surface_tilt(own[:3], offsets[:3], sin_a) == 0.0
 
 
 def test_a_clean_fruit_is_one_depth_cluster_and_located_as_before(stereo_scene):
