@@ -267,6 +267,9 @@ def test_the_stereo_eye_comes_from_the_robot_geometry_and_turns_with_the_waist()
         os.path.dirname(__file__), '..', '..', 'harvest_description', 'config', 'robot.yaml'))
     head = context.geometry.stereo_xyz                  # waist_link -> stereo_link (right eye)
     assert context.stereo_eye() == pytest.approx(head), 'waist unknown: at 0'
+    assert context.stereo_eye('base_link') == pytest.approx(head)
+    assert context.stereo_eye('map') is None, 'the cart moves in map: no eye'
+    assert context.stereo_eye('odom') is None, 'a frame the geometry does not have: no eye'
     context.set_joints(['waist_joint'], [0.5])
     c, s = math.cos(0.5), math.sin(0.5)
     assert context.stereo_eye() == pytest.approx(

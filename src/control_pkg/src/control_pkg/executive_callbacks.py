@@ -209,7 +209,8 @@ class _Callbacks(object):
         tomatoes = result.tomatoes.tomatoes if result is not None and result.success else None
         found = goals.relocate(t, tomatoes, self.relocate_tolerance,
                                self.relocate_radius_tolerance,
-                               self.context.stereo_eye() if self.relocate_depth else None)
+                               self.context.stereo_eye(t.pick_point.header.frame_id)
+                               if self.relocate_depth else None)
         if found.why == 'not-found':
             rospy.loginfo('executive: held fruit not found again within %.0f mm; keeping its '
                           'first estimate', self.relocate_tolerance * 1e3)

@@ -80,9 +80,10 @@ class MissionContext(object):
             value = self._joints.get('waist_joint')
         return None if value is None else float(value)
 
-    def stereo_eye(self):
+    def stereo_eye(self, frame='base_link'):
         """(x, y, z) of the stereo head's right eye (stereo_right_optical, where its pick
-        points' view rays start) in the base frame, from the robot geometry with the waist
+        points' view rays start) in `frame` (a frame of the robot geometry: the pick points'
+        frame; None for another one), from the robot geometry with the waist
         from joint_states (0 until known, as in the paper schedule, which does not subscribe
         them: the head sits 5 cm behind the waist's axis, so half a radian of waist moves it
         2.5 cm, about 3 degrees of the view ray to a fruit half a metre away); None without
@@ -90,7 +91,10 @@ class MissionContext(object):
         if self.geometry is None:
             return None
         poses = self.geometry.frame_transforms({'waist_joint': self.waist() or 0.0})
-        base = poses['base_link']
+        # the geometry's root `map` is the cart's start, not where it stands now
+        base = poses.get(frame) if frame != 'map' else None
+        if base is None:
+            return None
         eye = poses['stereo_right_optical'][:3, 3] - base[:3, 3]
         return tuple(float(v) for v in base[:3, :3].T.dot(eye))
 
