@@ -378,6 +378,45 @@ def _without_the_behind_rule(monkeypatch):
                         functools.partial(localisation.fruit_cluster, behind_share=None))
 
 
+def test_the_points_of_a_fruit_in_front_are_not_the_ones_of_a_fruit_behind_it(monkeypatch):
+    """Both fruit detected: where their circles overlap, the one located in front hides the
+    other, so its points there are not the other's (locate_all). Here the fruit behind has
+    only a thin crescent of points and no cluster of its own large enough for the rule of a
+    fruit hidden behind, and the neighbour in front fills its whole circle."""
+    cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=5)
+    vv, uu = np.mgrid[0:scene.HEIGHT, 0:scene.WIDTH]
+    disc = np.hypot(uu - det.u, vv - det.v) <= det.radius_px
+    x0, y0 = det.mask_origin
+    h, w = det.mask.shape
+    back = Detection(det.u, det.v, det.radius_px, det.score, mask=disc[y0:y0 + h, x0:x0 + w],
+                     mask_origin=det.mask_origin, mask_scale=1.0)
+    front_cam = neighbour - np.array([scene.BASELINE, 0.0, 0.0])
+    fu, fv = scene.project(front_cam)
+    front = Detection(fu, fv, scene.FOCAL * 0.033 / front_cam[2], 0.9)
+    alone = localisation.locate(cloud, back, P_RIGHT, image=image)
+    assert np.linalg.norm(alone.centre - truth) > 0.02, 'the test needs a wrong first location'
+    front_loc, back_loc = localisation.locate_all(cloud, [front, back], P_RIGHT, image=image)
+    assert np.linalg.norm(front_loc.centre - neighbour) < 0.003, front_loc
+    assert np.linalg.norm(back_loc.centre - truth) < 0.003, back_loc
+    # the order of the detections does not matter
+    back_loc2, front_loc2 = localisation.locate_all(cloud, [back, front], P_RIGHT, image=image)
+    assert np.array_equal(back_loc2.centre, back_loc.centre)
+    assert np.array_equal(front_loc2.centre, front_loc.centre)
+
+
+def test_a_fruit_whose_points_are_all_a_fruit_in_front_gets_no_3d_point():
+    """Nothing of the fruit behind was ranged: every point of its circle lies inside the
+    front fruit's, and it has no 3D point rather than the front fruit's depth."""
+    cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=1000)
+    front_cam = neighbour - np.array([scene.BASELINE, 0.0, 0.0])
+    fu, fv = scene.project(front_cam)
+    front = Detection(fu, fv, scene.FOCAL * 0.033 / front_cam[2], 0.9)
+    assert localisation.locate(cloud, det, P_RIGHT, image=image) is not None
+    front_loc, back_loc = localisation.locate_all(cloud, [front, det], P_RIGHT, image=image)
+    assert np.linalg.norm(front_loc.centre - neighbour) < 0.003
+    assert back_loc is None
+
+
 def test_skin_mismatched_behind_a_fruit_does_not_take_its_place():
     """Block matching ranges patches of a smooth skin 3-4 cm behind it (renders: a fully
     visible fruit's 91 points behind its 685). They pass the colour and radius tests and lie

@@ -404,8 +404,8 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
                                          cloud_msg.is_bigendian)
         detections = self.stereo_detector.detect(bgr)
         sizes = (self.min_fruit_radius, self.max_fruit_radius)
-        found = [(det, localisation.locate(cloud, det, info.P, image=bgr, radius_range=sizes))
-                 for det in detections]
+        found = list(zip(detections, localisation.locate_all(cloud, detections, info.P, image=bgr,
+                                                             radius_range=sizes)))
         with self._cache_lock:
             self._cache = (stamp, found)
         return found

@@ -126,6 +126,9 @@ BEHIND_MIN_SHARE = 0.3
 #: ... and only when the chosen cluster's centre distances tilt across the circle by at least
 #: this many radii per circle radius (`surface_tilt`): it is not the fruit's own skin
 BEHIND_MIN_TILT = 0.55
+#: locate_all: a fruit is in front of another when its centre is nearer by this share of the
+#: other's radius
+FRONT_MARGIN = 1.0
 
 
 class FruitLocation(object):
@@ -417,15 +420,22 @@ def hidden_behind(fits, chosen, dist, min_points=MIN_POINTS, min_share=BEHIND_MI
 
 
 def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image=None,
-           specular_ratio=SPECULAR_RATIO, radius_range=FRUIT_RADIUS_RANGE):
+           specular_ratio=SPECULAR_RATIO, radius_range=FRUIT_RADIUS_RANGE, hidden=()):
     """FruitLocation of a detection (cloud frame), or None when too few valid points (in all,
     or in the core of its silhouette).
 
     image: the BGR image the detection was made on (the right rectified image); with it, points
     on the specular highlight are ranged as its virtual image, and of several depth clusters
-    the fruit's skin is kept (module docstring). radius_range: a fruit's 3D radius (m)."""
+    the fruit's skin is kept (module docstring). radius_range: a fruit's 3D radius (m).
+    hidden: circles (u, v, radius_px) of fruit in front of this one: their points are not its
+    (`locate_all`)."""
     fx, fy, cx, cy, baseline = projection_params(right_p)
     pts, pu, pv = points_on_fruit(cloud, detection, right_p, pixels=True)
+    if len(hidden):
+        mine = np.ones(len(pts), dtype=bool)
+        for hu, hv, hr in hidden:
+            mine &= np.hypot(pu - hu, pv - hv) > hr
+        pts, pu, pv = pts[mine], pu[mine], pv[mine]
     if len(pts) < min_points:
         return None
     part = part_pixels(image, detection) if image is not None else None
@@ -479,6 +489,49 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
     surface = np.median(pr[lateral < EDGE_FRACTION * radius], axis=0) \
         if (lateral < EDGE_FRACTION * radius).any() else np.median(pr, axis=0)
     return FruitLocation(dist * axis + offset, radius, len(pts), surface + offset)
+
+
+def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS_RANGE,
+               **kwargs):
+    """FruitLocation (or None) of every detection, as `locate`, with the fruit's order in
+    depth: a sphere hides what lies behind it inside its silhouette, so where two circles
+    overlap, the points inside the circle of the one in front are not the other's. One pass
+    over the first locations; for each detection whose circle overlaps others':
+    - some located in front of it (centre nearer by FRONT_MARGIN of its radius or more): it
+      is located again without the points inside their circles; too few left: no 3D point
+      (what it had were theirs);
+    - else some located at its depth (within that margin): two fruit of overlapping circles
+      cannot both be there, one took the other's points. Located again without their
+      circles, it is the fruit behind them when that puts it behind them by the margin; with
+      too few points left, while each of them keeps points of its own outside this circle,
+      it has no 3D point; otherwise it keeps its first location."""
+    kwargs = dict(kwargs, image=image, radius_range=radius_range)
+    first = [locate(cloud, d, right_p, **kwargs) for d in detections]
+    dists = [None if loc is None else float(np.linalg.norm(loc.centre)) for loc in first]
+    out = list(first)
+    for i, (d, loc) in enumerate(zip(detections, first)):
+        if loc is None:
+            continue
+        margin = FRONT_MARGIN * loc.radius
+        over = [j for j, o in enumerate(detections) if j != i and first[j] is not None
+                and math.hypot(o.u - d.u, o.v - d.v) < o.radius_px + d.radius_px]
+        ahead = [j for j in over if dists[j] < dists[i] - margin]
+        level = [j for j in over if abs(dists[j] - dists[i]) <= margin]
+        if ahead:
+            out[i] = locate(cloud, d, right_p, hidden=_circles(detections, ahead), **kwargs)
+        elif level:
+            again = locate(cloud, d, right_p, hidden=_circles(detections, level), **kwargs)
+            if again is not None:
+                if float(np.linalg.norm(again.centre)) > max(dists[j] for j in level) + margin:
+                    out[i] = again
+            elif all(locate(cloud, detections[j], right_p, hidden=_circles(detections, [i]),
+                            **kwargs) is not None for j in level):
+                out[i] = None
+    return out
+
+
+def _circles(detections, indices):
+    return [(detections[j].u, detections[j].v, detections[j].radius_px) for j in indices]
 
 
 def cloud_array(data, height, width, point_step, row_step, offsets, big_endian=False):
