@@ -404,6 +404,27 @@ def test_the_points_of_a_fruit_in_front_are_not_the_ones_of_a_fruit_behind_it(mo
     assert np.array_equal(front_loc2.centre, front_loc.centre)
 
 
+def test_locate_all_locates_each_detection_at_most_twice(monkeypatch):
+    """Its cost is bounded: one first location per detection and at most one more where
+    circles overlap (here a pair located at one depth, the worst case of the rule)."""
+    cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=1000)
+    front_cam = neighbour - np.array([scene.BASELINE, 0.0, 0.0])
+    fu, fv = scene.project(front_cam)
+    front = Detection(fu, fv, scene.FOCAL * 0.033 / front_cam[2], 0.9)
+    far = Detection(40.0, 40.0, 20.0, 0.9)          # no overlap, no point: located once
+    calls = []
+    real = localisation.locate
+
+    def counted(*args, **kwargs):
+        calls.append(args[1])
+        return real(*args, **kwargs)
+    monkeypatch.setattr(localisation, 'locate', counted)
+    localisation.locate_all(cloud, [front, det, far], P_RIGHT, image=image)
+    assert calls.count(far) == 1
+    assert calls.count(front) <= 2 and calls.count(det) <= 2
+    assert len(calls) <= 2 * 3
+
+
 def test_a_fruit_whose_points_are_all_a_fruit_in_front_gets_no_3d_point():
     """Nothing of the fruit behind was ranged: every point of its circle lies inside the
     front fruit's, and it has no 3D point rather than the front fruit's depth."""
