@@ -78,8 +78,9 @@ visible fruit's 685), so the fruit is taken behind only when the chosen cluster 
 circle's own skin: its centre distances tilt across the circle (`surface_tilt`, at least
 BEHIND_MIN_TILT fruit radii per circle radius: 0.1-0.5 on the fruits' own skin, 0.6-11 on a
 neighbour, but also 0.9-3.6 on two fully visible fruit whose circles were off), and the
-cluster behind has at least BEHIND_MIN_SHARE of its points (`hidden_behind`). On three seeds of renders (664 located ripe fruit) that moves 4 fruit from
-70-181 mm to 0.4-10 mm and none the other way; with a share of 0.1 it also took 2 fully
+cluster behind has at least BEHIND_MIN_SHARE of its points (`hidden_behind`). On three seeds
+of renders (664 located ripe fruit) that moves 4 fruit from 70-181 mm to 0.4-10 mm and none
+the other way; with a share of 0.1 it also took 2 fully
 visible fruit behind their skins (to 54 and 115 mm), while it moved long_row f19_3 from 27
 to 2 mm in one of the four live noise frames (its crescent behind f19_1 has 15 % of f19_1's
 points there). A fruit with fewer than
