@@ -349,6 +349,25 @@ def test_a_fruit_in_front_keeps_its_place_over_a_neighbour_behind():
     assert np.linalg.norm(loc.centre - front) < 0.003, loc
 
 
+def _whole_circle_part(det):
+    """The detection with a part that fills its whole circle (the neighbour in front covers
+    the rest of it): the part's outline runs along the whole circle."""
+    vv, uu = np.mgrid[0:scene.HEIGHT, 0:scene.WIDTH]
+    disc = np.hypot(uu - det.u, vv - det.v) <= det.radius_px
+    x0, y0 = det.mask_origin
+    h, w = det.mask.shape
+    return Detection(det.u, det.v, det.radius_px, det.score, mask=disc[y0:y0 + h, x0:x0 + w],
+                     mask_origin=det.mask_origin, mask_scale=1.0)
+
+
+def _neighbour_detection(neighbour):
+    """The detection of _fruit_behind_a_neighbour's neighbour (its true circle, no mask),
+    from its centre in the left frame."""
+    front_cam = neighbour - np.array([scene.BASELINE, 0.0, 0.0])
+    fu, fv = scene.project(front_cam)
+    return Detection(fu, fv, scene.FOCAL * 0.033 / front_cam[2], 0.9)
+
+
 def test_a_fruit_behind_a_neighbour_that_fills_its_whole_circle_is_found_behind_it(monkeypatch):
     """The fruit's part can run along its whole circle (the neighbour in front covers the rest
     of it): no sector tells them apart, and the neighbour has most points (long_row f19_3
@@ -356,12 +375,7 @@ def test_a_fruit_behind_a_neighbour_that_fills_its_whole_circle_is_found_behind_
     A sphere hides everything behind it inside its silhouette, and the neighbour's centre
     distances tilt across the circle (another sphere): the cluster behind it is the fruit."""
     cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=3)
-    vv, uu = np.mgrid[0:scene.HEIGHT, 0:scene.WIDTH]
-    disc = np.hypot(uu - det.u, vv - det.v) <= det.radius_px
-    x0, y0 = det.mask_origin
-    h, w = det.mask.shape
-    full = Detection(det.u, det.v, det.radius_px, det.score, mask=disc[y0:y0 + h, x0:x0 + w],
-                     mask_origin=det.mask_origin, mask_scale=1.0)
+    full = _whole_circle_part(det)
     assert localisation.outline_sectors(full).all()
     pts = localisation.points_on_fruit(cloud, full, P_RIGHT)
     assert np.sum(pts[:, 2] < 0.56) > len(pts) / 2, 'the neighbour must be most of the points'
@@ -384,15 +398,8 @@ def test_the_points_of_a_fruit_in_front_are_not_the_ones_of_a_fruit_behind_it(mo
     only a thin crescent of points and no cluster of its own large enough for the rule of a
     fruit hidden behind, and the neighbour in front fills its whole circle."""
     cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=5)
-    vv, uu = np.mgrid[0:scene.HEIGHT, 0:scene.WIDTH]
-    disc = np.hypot(uu - det.u, vv - det.v) <= det.radius_px
-    x0, y0 = det.mask_origin
-    h, w = det.mask.shape
-    back = Detection(det.u, det.v, det.radius_px, det.score, mask=disc[y0:y0 + h, x0:x0 + w],
-                     mask_origin=det.mask_origin, mask_scale=1.0)
-    front_cam = neighbour - np.array([scene.BASELINE, 0.0, 0.0])
-    fu, fv = scene.project(front_cam)
-    front = Detection(fu, fv, scene.FOCAL * 0.033 / front_cam[2], 0.9)
+    back = _whole_circle_part(det)
+    front = _neighbour_detection(neighbour)
     alone = localisation.locate(cloud, back, P_RIGHT, image=image)
     assert np.linalg.norm(alone.centre - truth) > 0.02, 'the test needs a wrong first location'
     front_loc, back_loc = localisation.locate_all(cloud, [front, back], P_RIGHT, image=image)
@@ -408,9 +415,7 @@ def test_locate_all_locates_each_detection_at_most_twice(monkeypatch):
     """Its cost is bounded: one first location per detection and at most one more where
     circles overlap (here a pair located at one depth, the worst case of the rule)."""
     cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=1000)
-    front_cam = neighbour - np.array([scene.BASELINE, 0.0, 0.0])
-    fu, fv = scene.project(front_cam)
-    front = Detection(fu, fv, scene.FOCAL * 0.033 / front_cam[2], 0.9)
+    front = _neighbour_detection(neighbour)
     far = Detection(40.0, 40.0, 20.0, 0.9)          # no overlap, no point: located once
     calls = []
     real = localisation.locate
@@ -429,9 +434,7 @@ def test_a_fruit_whose_points_are_all_a_fruit_in_front_gets_no_3d_point():
     """Nothing of the fruit behind was ranged: every point of its circle lies inside the
     front fruit's, and it has no 3D point rather than the front fruit's depth."""
     cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=1000)
-    front_cam = neighbour - np.array([scene.BASELINE, 0.0, 0.0])
-    fu, fv = scene.project(front_cam)
-    front = Detection(fu, fv, scene.FOCAL * 0.033 / front_cam[2], 0.9)
+    front = _neighbour_detection(neighbour)
     assert localisation.locate(cloud, det, P_RIGHT, image=image) is not None
     front_loc, back_loc = localisation.locate_all(cloud, [front, det], P_RIGHT, image=image)
     assert np.linalg.norm(front_loc.centre - neighbour) < 0.003
