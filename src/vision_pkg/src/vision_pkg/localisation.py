@@ -389,9 +389,11 @@ def fruit_cluster(clusters, dist, sin_a, colour, min_points=MIN_POINTS,
             chosen = best
     if behind_share is None or offsets is None or len(fits) < 2:
         return chosen
-    if surface_tilt(dist[chosen], offsets[chosen], sin_a) < min_tilt:
+    behind = hidden_behind(fits, chosen, dist, min_points, behind_share)
+    # the tilt (a least-squares fit) only where there is a cluster behind to take
+    if behind is chosen or surface_tilt(dist[chosen], offsets[chosen], sin_a) < min_tilt:
         return chosen
-    return hidden_behind(fits, chosen, dist, min_points, behind_share)
+    return behind
 
 
 def surface_tilt(dist, offsets, sin_a):
