@@ -64,6 +64,8 @@ CUT_STATES = (SimFruit.HARVESTED, SimFruit.COLLECTED, SimFruit.DROPPED, SimFruit
 MISSION = '/SM_ROOT/RUN/MISSION'
 PICK_TARGET = MISSION + '/PICK_TARGET'
 RIGHT_ARM = PICK_TARGET + '/RIGHT_ARM'
+OUTCOME_NAMES = {v: k[len('OUTCOME_'):].lower() for k, v in vars(PickRecord).items()
+                 if k.startswith('OUTCOME_')}
 
 
 class Watch(object):
@@ -74,6 +76,8 @@ class Watch(object):
         self.velocities = None
         self.fruits = None
         self.restarts = []            # node names of the `restart` events on mission/events
+        self.records = []             # every PickRecord of mission/pick_records, in order
+        rospy.Subscriber('/mission/pick_records', PickRecord, self._record)
         rospy.Subscriber('/mission/events', MissionEvent, self._event)
         rospy.Subscriber('/sim/fruits', SimFruitArray, self._set('fruits', lambda m: list(m.fruits)))
         rospy.Subscriber('/mission/summary', String, self._set('summary', lambda m: json.loads(m.data)))
@@ -92,6 +96,26 @@ class Watch(object):
             with self.cond:
                 self.restarts.append(msg.state)
                 self.cond.notify_all()
+
+    def _record(self, msg):
+        with self.cond:
+            self.records.append(msg)
+
+    def story(self, fruit):
+        """What the executive recorded at a missed fruit's picking point (the failure message):
+        the fruit's world state and place, then each record of that point with its outcome,
+        reason and pick point."""
+        p = fruit.position
+        lines = ['%s: %s at (%.3f, %.3f, %.3f) map, picking point %d' % (
+            fruit.id, fruit.state_name, p.x, p.y, p.z, fruit.picking_point)]
+        with self.cond:
+            records = [r for r in self.records if r.picking_point == fruit.picking_point]
+        for r in records:
+            q = r.pick_point.point
+            lines.append('  target %d %s%s at (%.3f, %.3f, %.3f) %s' % (
+                r.target_id, OUTCOME_NAMES.get(r.outcome, r.outcome),
+                ' (%s)' % r.reason if r.reason else '', q.x, q.y, q.z, r.pick_point.header.frame_id))
+        return '\n'.join(lines)
 
     def _status(self, msg):
         with self.cond:
@@ -163,7 +187,8 @@ class MissionTest(unittest.TestCase):
         if rospy.get_param('~expect_harvest_all', True):
             missed = [f.id for f in fruits if f.ripe and f.reachable and f.state != SimFruit.COLLECTED
                       and f.id not in dropped]
-            self.assertEqual(missed, [], 'ripe reachable fruit not harvested: %s' % missed)
+            self.assertEqual(missed, [], 'ripe reachable fruit not harvested: %s\n%s' % (
+                missed, '\n'.join(w.story(f) for f in fruits if f.id in missed)))
             self.assertEqual(s['picked'], truth.collected, 'executive record and ground truth disagree')
         if kill_in:
             self.check_records_after_restart(s, truth)
