@@ -5,6 +5,7 @@
 #include "cooperation_pkg/visual_servo_cycle_node.h"
 
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <stdexcept>
 
@@ -25,6 +26,8 @@ const double PROBE_STILL_TOLERANCE = 0.0005;
 const double PROBE_GOAL_TOLERANCE = 0.0025;
 /// depth probe: images taken for one view before the probe is skipped
 const int PROBE_IMAGE_TRIES = 3;
+/// step mode: tf at an image time within this of tf now (m), as the arm is at rest for every image
+const double STEP_STILL_TOLERANCE = 0.001;
 
 geometry_msgs::Twist toTwist(const vpColVector &v)
 {
@@ -307,6 +310,28 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
   return Step::OK;
 }
 
+bool VisualServoCycleNode::toolStoodStill(const geometry_msgs::TransformStamped &base_from_tool_at_image,
+                                          std::string &why) const
+{
+  geometry_msgs::TransformStamped base_from_tool_now;
+  if (!lookup(base_frame_, tool_frame_, ros::Time(0), base_from_tool_now, why))
+  {
+    return false;
+  }
+  const double off = (toHomogeneous(base_from_tool_at_image).getTranslationVector() -
+                      toHomogeneous(base_from_tool_now).getTranslationVector())
+                         .frobeniusNorm();
+  if (off <= STEP_STILL_TOLERANCE)
+  {
+    return true;
+  }
+  char buf[200];
+  std::snprintf(buf, sizeof(buf), "tf at the image time still holds a move: the tool %.1f mm from where it stands",
+                off * 1e3);
+  why = buf;
+  return false;
+}
+
 void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &goal)
 {
   ServoSettings s;
@@ -424,6 +449,27 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
       // before the approach move put the target behind the camera)
       st = Step::LOST;
     }
+    if (st == Step::OK && !continuous && !toolStoodStill(base_from_tool_msg, why))
+    {
+      // step mode takes every image with the arm at rest, so tf at the image time must agree with
+      // tf now; on a busy machine it can still hold the last move (joint states stamped late)
+      st = Step::LOST;
+    }
+    PointFeature current;
+    vpHomogeneousMatrix T_cam_base, T_base_tool_now;
+    if (st == Step::OK)
+    {
+      T_cam_base = toHomogeneous(cam_from_base_msg);
+      T_base_tool_now = toHomogeneous(base_from_tool_msg);
+      if (!currentFeature(feature.x, feature.y, T_cam_base * target_base, current))
+      {
+        // the image shows the fruit, so the camera's pose at its time puts the target where
+        // the camera cannot see it: that pose is another time's (or the target or the tf tree
+        // is wrong, and every image says so until the lost limit)
+        why = "the target point is behind the hand camera at the image time (check the target and the tf tree)";
+        st = Step::LOST;
+      }
+    }
     if (st == Step::LOST)
     {
       const bool give_up = lost.miss();
@@ -440,15 +486,6 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
     if (misses > 0)
     {
       ROS_INFO_NAMED(LOG, "visual_servo: target found again after %d misses", misses);
-    }
-
-    const vpHomogeneousMatrix T_cam_base = toHomogeneous(cam_from_base_msg);
-    const vpHomogeneousMatrix T_base_tool_now = toHomogeneous(base_from_tool_msg);
-    PointFeature current;
-    if (!currentFeature(feature.x, feature.y, T_cam_base * target_base, current))
-    {
-      fail("the target point is behind the hand camera (check the target and the tf tree)");
-      return;
     }
 
     // 3. compare with the desired feature, error expressed at the target
