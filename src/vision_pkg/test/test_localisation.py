@@ -467,6 +467,40 @@ def test_surface_tilt_is_zero_on_the_fruits_own_skin_and_large_on_another_sphere
     assert localisation.surface_tilt(own[:3], offsets[:3], sin_a) == 0.0
 
 
+def _tilted_patch_and_one_behind(n_front, n_behind, front_spread):
+    """fruit_cluster's inputs: a cluster at 0.57 m whose centre distances climb 4 radii per
+    circle radius across a patch of `front_spread` (std of its offsets, circle radii), and
+    one at 0.72 m behind it; both pass the colour and radius tests."""
+    sin_a = 0.0615
+    rng = np.random.RandomState(5)
+    front_off = rng.normal(0.0, front_spread, size=(n_front, 2))
+    behind_off = rng.normal(0.0, 0.06, size=(n_behind, 2))
+    front = 0.57 + 4.0 * 0.57 * sin_a * front_off[:, 0]
+    behind = np.full(n_behind, 0.72) + rng.normal(0.0, 0.001, n_behind)
+    dist = np.concatenate([front, behind])
+    offsets = np.concatenate([front_off, behind_off])
+    clusters = [np.arange(n_front), n_front + np.arange(n_behind)]
+    return clusters, dist, sin_a, np.zeros(len(dist)), offsets
+
+
+def test_a_small_steep_patch_of_the_fruits_skin_keeps_it_over_the_backdrop_behind():
+    """low_light: on a dim skin block matching ranged the fruit's points as a small patch
+    whose centre distances climb steeply (tilt 3-4), and the backdrop showed through the
+    circle behind it with half as many points: the fruit was taken 150-210 mm behind. A tilt
+    over a patch that spans little of the circle is an extrapolation: the patch stays the
+    fruit, unless the cluster behind has more points."""
+    clusters, dist, sin_a, colour, offsets = _tilted_patch_and_one_behind(200, 100, 0.08)
+    assert localisation.surface_tilt(dist[clusters[0]], offsets[clusters[0]], sin_a) > 3.0
+    chosen = localisation.fruit_cluster(clusters, dist, sin_a, colour, offsets=offsets)
+    assert chosen is clusters[0]
+    # a patch across the circle with that tilt is another sphere in front: the fruit is behind
+    clusters, dist, sin_a, colour, offsets = _tilted_patch_and_one_behind(200, 100, 0.3)
+    assert localisation.fruit_cluster(clusters, dist, sin_a, colour, offsets=offsets) is clusters[1]
+    # a small patch with more points behind it: the one behind
+    clusters, dist, sin_a, colour, offsets = _tilted_patch_and_one_behind(40, 250, 0.05)
+    assert localisation.fruit_cluster(clusters, dist, sin_a, colour, offsets=offsets) is clusters[1]
+
+
 def test_a_clean_fruit_is_one_depth_cluster_and_located_as_before(stereo_scene):
     """On a fruit with nothing in front, StereoBM's points are one cluster: the image changes
     nothing but the highlight ranging, and the pick point stays within 5 mm."""

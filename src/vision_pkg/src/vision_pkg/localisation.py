@@ -78,7 +78,14 @@ visible fruit's 685), so the fruit is taken behind only when the chosen cluster 
 circle's own skin: its centre distances tilt across the circle (`surface_tilt`, at least
 BEHIND_MIN_TILT fruit radii per circle radius: 0.1-0.5 on the fruits' own skin, 0.6-11 on a
 neighbour, but also 0.9-3.6 on two fully visible fruit whose circles were off), and the
-cluster behind has at least BEHIND_MIN_SHARE of its points (`hidden_behind`). On three seeds
+cluster behind has at least BEHIND_MIN_SHARE of its points (`hidden_behind`). A tilt means
+something only over a cluster that spans the circle: on a dim skin block matching ranged the
+fruit's points as a small, steep patch (tilt 3-4, its offsets' spread 0.08 of the circle's
+radius) with the backdrop behind it at half as many points, and the fruit was taken 150-210 mm
+too far (low_light f00_0 in two of 16 noise-frame pairs). So a chosen cluster spanning less
+than TILT_MIN_SPREAD stays the fruit unless the cluster behind has more points than it (the
+four fruit the rule moves on renders are unchanged: two span 0.28-0.40, two have 6-40 times
+fewer points than the cluster behind). On three seeds
 of renders (664 located ripe fruit) that moves 4 fruit from 70-181 mm to 0.4-10 mm and none
 the other way; with a share of 0.1 it also took 2 fully
 visible fruit behind their skins (to 54 and 115 mm), while it moved long_row f19_3 from 27
@@ -127,6 +134,10 @@ BEHIND_MIN_SHARE = 0.3
 #: ... and only when the chosen cluster's centre distances tilt across the circle by at least
 #: this many radii per circle radius (`surface_tilt`): it is not the fruit's own skin
 BEHIND_MIN_TILT = 0.55
+#: ... and only when the chosen cluster spans the circle enough for that tilt to mean something
+#: (standard deviation of its points' offsets from the centre, in circle radii, along x or y),
+#: unless the cluster behind has more points than it
+TILT_MIN_SPREAD = 0.15
 #: locate_all: a fruit is in front of another when its centre is nearer by this share of the
 #: other's radius
 FRONT_MARGIN = 1.0
@@ -360,7 +371,7 @@ def sector_index(du, dv, bins=OUTLINE_BINS):
 def fruit_cluster(clusters, dist, sin_a, colour, min_points=MIN_POINTS,
                   radius_range=FRUIT_RADIUS_RANGE, tol=SKIN_CHROMA_TOL, in_outline=None,
                   margin=SECTOR_MARGIN, behind_share=BEHIND_MIN_SHARE, offsets=None,
-                  min_tilt=BEHIND_MIN_TILT):
+                  min_tilt=BEHIND_MIN_TILT, min_spread=TILT_MIN_SPREAD):
     """The cluster (index array) that is the fruit: of those with at least min_points points,
     a radius (median dist x sin alpha) in radius_range and a median colour distance <= tol, the
     largest; None when there is none. in_outline: per point, 1 when it lies in a sector where
@@ -392,6 +403,10 @@ def fruit_cluster(clusters, dist, sin_a, colour, min_points=MIN_POINTS,
     behind = hidden_behind(fits, chosen, dist, min_points, behind_share)
     # the tilt (a least-squares fit) only where there is a cluster behind to take
     if behind is chosen or surface_tilt(dist[chosen], offsets[chosen], sin_a) < min_tilt:
+        return chosen
+    if len(behind) <= len(chosen) and float(np.std(offsets[chosen], axis=0).max()) < min_spread:
+        # a small patch: its tilt is an extrapolation across the circle, and block matching on
+        # a dim skin ranges such patches steeply (the cluster behind was the backdrop)
         return chosen
     return behind
 
