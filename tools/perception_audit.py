@@ -57,7 +57,7 @@ def audit_point(scenario, point, renderer, fruits, geom, camera, detector, stere
     y = scenario.track.picking_points[point]
     left_t, right_t = scn.stereo_eyes(geom, y)
     base = float(np.linalg.norm(left_t[:3, 3] - right_t[:3, 3]))
-    p_right = [camera.fx, 0, camera.cx, -camera.fx * base, 0, camera.fy, camera.cy, 0, 0, 0, 1, 0]
+    p_right = camera.P(-camera.fx * base)             # the right eye's, as its camera_info
     want = [f for f in scenario.fruits if f.picking_point == point and f.ripeness >= PICKABLE and
             f.reachable]
     unripe = [f for f in scenario.fruits if abs(f.position[1] - y) < VIEW_HALF_WIDTH and

@@ -228,7 +228,7 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
   vpTranslationVector sideways;  // the tool point it was sent to
   for (int k = 0; k < 2; ++k)
   {
-    geometry_msgs::TransformStamped base_from_cam, base_from_tool, base_from_tool_now;
+    geometry_msgs::TransformStamped base_from_cam, base_from_tool;
     // Each image must show the tool standing still: tf at the image time must agree with tf now
     // (and, after the sideways move, with its goal). A millimetre of pose error is several of
     // depth over the short baseline, and on a busy machine tf at an image time just after a move
@@ -242,15 +242,15 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
                        st == Step::LOST ? "target not seen" : why.c_str());
         return st == Step::PREEMPTED ? st : Step::OK;
       }
+      double off_now = 0.0;
       if (!lookup(base_frame_, camera_frame_, seen[k].header.stamp, base_from_cam, why) ||
           !lookup(base_frame_, tool_frame_, seen[k].header.stamp, base_from_tool, why) ||
-          !lookup(base_frame_, tool_frame_, ros::Time(0), base_from_tool_now, why))
+          !toolOffsetFromNow(base_from_tool, off_now, why))
       {
         ROS_WARN_NAMED(LOG, "visual_servo: depth probe skipped (%s)", why.c_str());
         return Step::OK;
       }
       const vpTranslationVector at = toHomogeneous(base_from_tool).getTranslationVector();
-      const double off_now = (at - toHomogeneous(base_from_tool_now).getTranslationVector()).frobeniusNorm();
       const double off_goal = moved ? (at - sideways).frobeniusNorm() : 0.0;
       if (off_now <= PROBE_STILL_TOLERANCE && off_goal <= PROBE_GOAL_TOLERANCE)
       {
@@ -310,26 +310,18 @@ VisualServoCycleNode::Step VisualServoCycleNode::probeDepth(const harvest_msgs::
   return Step::OK;
 }
 
-bool VisualServoCycleNode::toolStoodStill(const geometry_msgs::TransformStamped &base_from_tool_at_image,
-                                          std::string &why) const
+bool VisualServoCycleNode::toolOffsetFromNow(const geometry_msgs::TransformStamped &base_from_tool_at_image,
+                                             double &off, std::string &why) const
 {
   geometry_msgs::TransformStamped base_from_tool_now;
   if (!lookup(base_frame_, tool_frame_, ros::Time(0), base_from_tool_now, why))
   {
     return false;
   }
-  const double off = (toHomogeneous(base_from_tool_at_image).getTranslationVector() -
-                      toHomogeneous(base_from_tool_now).getTranslationVector())
-                         .frobeniusNorm();
-  if (off <= STEP_STILL_TOLERANCE)
-  {
-    return true;
-  }
-  char buf[200];
-  std::snprintf(buf, sizeof(buf), "tf at the image time still holds a move: the tool %.1f mm from where it stands",
-                off * 1e3);
-  why = buf;
-  return false;
+  off = (toHomogeneous(base_from_tool_at_image).getTranslationVector() -
+         toHomogeneous(base_from_tool_now).getTranslationVector())
+            .frobeniusNorm();
+  return true;
 }
 
 void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &goal)
@@ -449,11 +441,23 @@ void VisualServoCycleNode::execute(const harvest_msgs::VisualServoGoalConstPtr &
       // before the approach move put the target behind the camera)
       st = Step::LOST;
     }
-    if (st == Step::OK && !continuous && !toolStoodStill(base_from_tool_msg, why))
+    double off_now = 0.0;
+    if (st == Step::OK && !continuous)
     {
       // step mode takes every image with the arm at rest, so tf at the image time must agree with
       // tf now; on a busy machine it can still hold the last move (joint states stamped late)
-      st = Step::LOST;
+      if (!toolOffsetFromNow(base_from_tool_msg, off_now, why))
+      {
+        st = Step::LOST;
+      }
+      else if (off_now > STEP_STILL_TOLERANCE)
+      {
+        char buf[200];
+        std::snprintf(buf, sizeof(buf),
+                      "tf at the image time still holds a move: the tool %.1f mm from where it stands", off_now * 1e3);
+        why = buf;
+        st = Step::LOST;
+      }
     }
     PointFeature current;
     vpHomogeneousMatrix T_cam_base, T_base_tool_now;

@@ -71,9 +71,11 @@ private:
    *  puts it in target_base (kept when the probe cannot range it); FAILED only when the sideways move failed. */
   Step probeDepth(const harvest_msgs::VisualServoGoal &goal, const ServoSettings &s, vpTranslationVector &target_base,
                   trajectory_msgs::JointTrajectoryPoint &last_cmd, std::string &why);
-  /** Step mode: whether tf at an image time (the tool's pose then) agrees with tf now within
-   *  STEP_STILL_TOLERANCE, as the arm is at rest for every image; false with `why` otherwise. */
-  bool toolStoodStill(const geometry_msgs::TransformStamped &base_from_tool_at_image, std::string &why) const;
+  /** How far (m, in `off`) tf's tool at an image time (base_from_tool_at_image) is from tf's tool
+   *  now: the arm stood still for the image when it is near 0 (the depth probe, step mode). False
+   *  with `why` when tf has no latest pose. */
+  bool toolOffsetFromNow(const geometry_msgs::TransformStamped &base_from_tool_at_image, double &off,
+                         std::string &why) const;
   Step requestFeature(const geometry_msgs::PointStamped &target, harvest_msgs::ServoFeature &feature,
                       std::string &why);
   Step solveIk(const geometry_msgs::PointStamped &tool_point, trajectory_msgs::JointTrajectoryPoint &joints,

@@ -47,6 +47,7 @@ import unittest
 import rosgraph
 import rospy
 import rostest
+from control_pkg.mission import OUTCOME_NAMES
 from harvest_msgs.msg import MissionEvent, PickRecord
 from harvest_msgs.srv import GetMissionRecords
 from harvest_sim.msg import SimFruit, SimFruitArray
@@ -64,8 +65,6 @@ CUT_STATES = (SimFruit.HARVESTED, SimFruit.COLLECTED, SimFruit.DROPPED, SimFruit
 MISSION = '/SM_ROOT/RUN/MISSION'
 PICK_TARGET = MISSION + '/PICK_TARGET'
 RIGHT_ARM = PICK_TARGET + '/RIGHT_ARM'
-OUTCOME_NAMES = {v: k[len('OUTCOME_'):].lower() for k, v in vars(PickRecord).items()
-                 if k.startswith('OUTCOME_')}
 
 
 class Watch(object):
