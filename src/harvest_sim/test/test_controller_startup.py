@@ -17,7 +17,7 @@ import pytest
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
-from harvest_sim.instance import free_port  # noqa: E402
+from harvest_test_utils.net import free_port  # noqa: E402
 
 LAUNCH_TIMEOUT = 60.0       # wall seconds: a safety net only (the launch ends in a few seconds)
 

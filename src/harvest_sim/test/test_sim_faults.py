@@ -17,7 +17,7 @@ from harvest_sim.clock import ClockHolds
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config
 from harvest_sim.controller_server import ControllerServer
 from harvest_sim.frame_timing import CameraSilence
-from harvest_sim.instance import free_port
+from harvest_test_utils.net import free_port
 from motion_pkg.modbus_driver import ConnectionLost, ModbusDriver
 from motion_pkg.modbus_map import RegisterMap
 

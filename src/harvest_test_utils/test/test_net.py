@@ -5,8 +5,9 @@ import socket
 
 import pytest
 
-from harvest_test_utils.net import (LOOPBACK, free_port, free_port_offset, port_is_free,
-                                     wait_for)
+from harvest_test_utils import net
+from harvest_test_utils.net import (LOOPBACK, TEST_PORTS, free_port, free_port_offset,
+                                     port_is_free, wait_for)
 
 
 def test_free_port_can_be_listened_on():
@@ -14,6 +15,46 @@ def test_free_port_can_be_listened_on():
     with socket.socket() as s:
         s.bind((LOOPBACK, port))
         s.listen(1)
+
+
+def test_free_port_is_below_the_kernels_own_ports_and_the_rostests_fixed_ones():
+    # a port the kernel hands out (every ROS node listens on one) or a rostest's fixed port
+    # could be taken between the choice and the test server's bind (a CI failure: "address
+    # already in use" for the farm server's port 44755)
+    ports = [free_port() for _ in range(50)]
+    assert all(port < min(net.ephemeral_low(), min(TEST_PORTS)) for port in ports)
+    assert 11311 not in ports
+
+
+def test_free_port_gives_a_port_once_per_process():
+    # two servers of one test (a database cluster, then the farm server) before either binds
+    rng = random.Random(5)
+    ports = [free_port(rng=rng) for _ in range(200)]
+    assert len(set(ports)) == len(ports)
+
+
+def test_free_port_skips_a_port_that_is_listened_on():
+    seed = 11
+    first = free_port(rng=random.Random(seed))
+    net._given.discard(first)
+    holder = socket.socket()
+    try:
+        try:
+            holder.bind((LOOPBACK, first))
+            holder.listen(1)
+        except OSError:
+            pass             # taken by somebody else since: taken all the same
+        second = free_port(rng=random.Random(seed))
+        assert second != first
+    finally:
+        holder.close()
+
+
+def test_ephemeral_low_reads_the_kernels_range(tmp_path):
+    path = tmp_path / 'ip_local_port_range'
+    path.write_text('40000\t60999\n')
+    assert net.ephemeral_low(str(path)) == 40000
+    assert net.ephemeral_low(str(tmp_path / 'missing')) == 32768
 
 
 def test_wait_for_returns_the_first_true_value():

@@ -6,8 +6,40 @@ import time
 LOOPBACK = '127.0.0.1'
 
 
-def free_port(host=LOOPBACK):
-    """A TCP port nobody listens on right now (the kernel's choice; free when returned)."""
+#: where free_port looks: below the rostests' fixed ports (TEST_PORTS and their offsets fill
+#: 15000-32767) and so below the kernel's ephemeral range, skipping a default ROS master
+FREE_PORT_RANGE = (10000, 15000)
+_SKIPPED = frozenset([11311])
+_given = set()
+
+
+def ephemeral_low(path='/proc/sys/net/ipv4/ip_local_port_range'):
+    """The lowest port the kernel hands out by itself (bind to port 0, outgoing connections)."""
+    try:
+        with open(path) as f:
+            return int(f.read().split()[0])
+    except (OSError, ValueError, IndexError):
+        return 32768
+
+
+def free_port(host=LOOPBACK, rng=None):
+    """A TCP port nobody listens on right now, for a server a test starts.
+
+    Chosen at random in FREE_PORT_RANGE, outside the kernel's ephemeral range: between this
+    call and the server's bind, no ROS node of a test running beside (they all listen on port
+    0, the kernel's choice) nor an outgoing connection can take it, and it is never one of
+    the rostests' fixed ports. A port is given at most once per process. Falls back to the
+    kernel's choice when the range is taken or overlaps the ephemeral range."""
+    import random
+    rng = rng or random.SystemRandom()
+    low, high = FREE_PORT_RANGE
+    high = min(high, ephemeral_low())
+    for _ in range(200 if high > low else 0):
+        port = rng.randrange(low, high)
+        if port in _SKIPPED or port in _given or not port_is_free(port, host):
+            continue
+        _given.add(port)
+        return port
     with socket.socket() as s:
         s.bind((host, 0))
         return s.getsockname()[1]
