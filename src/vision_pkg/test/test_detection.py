@@ -374,6 +374,38 @@ def test_red_fruit_half_hidden_behind_a_red_one_are_both_found(angle, offset):
         assert len(dets) == 2, (seed, dets)
 
 
+@pytest.mark.parametrize('seed', range(3))
+@pytest.mark.parametrize('behind_x, turning', [(0.035, None), (0.03, (-0.04, -0.03))])
+def test_a_red_fruit_whose_centre_lies_inside_a_red_neighbours_circle_is_not_its_fragment(
+        seed, behind_x, turning):
+    # long_row's picking point 19: a red fruit hangs behind another, its centre inside the
+    # front one's circle, with a turning fruit in front of both. Split into two circles, the
+    # one behind was dropped as a fragment of the other (same colour, centre inside): but its
+    # circle reaches far out of the other's, which a piece of one fruit's outline never does
+    front = scene.Fruit(0.0, 0.0, 0.50, 0.035, 0.92)
+    behind = scene.Fruit(behind_x, 0.005, 0.57, 0.039, 0.9)
+    fruits = [front, behind]
+    if turning is not None:
+        fruits.append(scene.Fruit(turning[0], turning[1], 0.44, 0.031, 0.34))
+    image, _, _ = scene.render(fruits, backdrop_depth=0.95, seed=seed)
+    dets = TomatoDetector().detect(image)
+    for fruit in (front, behind):
+        found = [d for d in dets if _match(d, fruit) >= 0.5]
+        assert len(found) == 1, (fruit.centre, scene.gt_box(fruit), dets)
+        assert found[0].stage == detection.STAGE_RED, found
+
+
+def test_a_piece_of_a_fruit_inside_its_circle_is_still_merged_into_it():
+    detector = TomatoDetector()
+    fruit = detection.Detection(100.0, 100.0, 50.0, 0.9)
+    piece = detection.Detection(112.0, 96.0, 30.0, 0.85)        # reaches 42.6 px of 50
+    beside = detection.Detection(140.0, 104.0, 48.0, 0.88)      # centre inside, reaches 88 px
+    greener = detection.Detection(110.0, 100.0, 30.0, 0.5)       # another fruit's colour
+    kept = detector._merge_fragments([piece, fruit, beside, greener])
+    assert kept == [fruit, beside, greener]
+    assert TomatoDetector(fragment_max_reach=0)._merge_fragments([fruit, beside]) == [fruit]
+
+
 def test_calyx_and_stem_across_a_red_fruit_do_not_lower_its_grade():
     """Seen from the calyx side, a red fruit has a star of dark green sepals in its middle and
     often its truss stem across it: they are enclosed by the fruit's colour, so they belong to
