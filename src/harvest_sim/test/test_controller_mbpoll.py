@@ -3,7 +3,6 @@
 import os
 import re
 import shutil
-import socket
 import subprocess
 import sys
 import time
@@ -17,6 +16,7 @@ sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 from harvest_sim import controller_map as cm  # noqa: E402
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config  # noqa: E402
 from harvest_sim.controller_server import ControllerServer  # noqa: E402
+from harvest_test_utils.net import free_port  # noqa: E402
 
 ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 MBPOLL = shutil.which('mbpoll')
@@ -27,9 +27,7 @@ pytestmark = pytest.mark.skipif(MBPOLL is None, reason='mbpoll not installed (ap
 def controller():
     with open(ROBOT_YAML) as f:
         model = ControllerModel(axes_from_robot_config(yaml.safe_load(f)))
-    with socket.socket() as s:
-        s.bind(('127.0.0.1', 0))
-        port = s.getsockname()[1]
+    port = free_port()
     start = time.monotonic()
     server = ControllerServer(model, lambda: time.monotonic() - start, port=port)
     server.start()

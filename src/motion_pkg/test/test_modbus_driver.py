@@ -3,7 +3,6 @@ lost connections, back-off and Modbus exceptions."""
 
 import asyncio
 import os
-import socket
 import sys
 import threading
 
@@ -15,6 +14,7 @@ from pymodbus.server import ModbusTcpServer
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
+from harvest_test_utils.net import free_port  # noqa: E402
 from motion_pkg.modbus_driver import (Backoff, ConnectionLost, ControllerRefused,  # noqa: E402
                                       ModbusDriver)
 from motion_pkg.modbus_map import RegisterMap, split_int32, split_uint32  # noqa: E402
@@ -26,9 +26,7 @@ class PlainServer(object):
     """A register bank on a loopback port, served from a thread."""
 
     def __init__(self, identity=0x4843, serial_number=1):
-        with socket.socket() as s:
-            s.bind(('127.0.0.1', 0))
-            self.port = s.getsockname()[1]
+        self.port = free_port()
         self.hr = ModbusSequentialDataBlock(0, [0] * 200)
         self.co = ModbusSequentialDataBlock(0, [False] * 8)
         self.hr.setValues(0, [identity, 1, 8])
