@@ -14,10 +14,10 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, '..', 'src'))
 
 from harvest_sim import controller_map as cm  # noqa: E402
-from harvest_test_utils.net import free_port  # noqa: E402
 from harvest_sim.controller_model import ControllerModel, axes_from_robot_config  # noqa: E402
 from harvest_sim.controller_server import (BindError, ControllerServer,  # noqa: E402
                                            apply_faults, parse_fault_spec)
+from harvest_test_utils.net import free_port  # noqa: E402
 
 ROBOT_YAML = os.path.join(HERE, '..', '..', 'harvest_description', 'config', 'robot.yaml')
 

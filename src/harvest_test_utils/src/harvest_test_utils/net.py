@@ -1,14 +1,18 @@
 """Free loopback ports and waiting for a condition, for tests that start servers."""
 
+import random
 import socket
 import time
 
 LOOPBACK = '127.0.0.1'
 
+#: the fixed ports of the rostest files (simulated controllers, the farm server), to which
+#: HARVEST_TEST_PORT_OFFSET is added (`$(eval N + int(optenv('HARVEST_TEST_PORT_OFFSET', '0')))`)
+TEST_PORTS = tuple(range(15000, 15100)) + (18431,)
 
 #: where free_port looks: below the rostests' fixed ports (TEST_PORTS and their offsets fill
 #: 15000-32767) and so below the kernel's ephemeral range, skipping a default ROS master
-FREE_PORT_RANGE = (10000, 15000)
+FREE_PORT_RANGE = (10000, min(TEST_PORTS))
 _SKIPPED = frozenset([11311])
 _given = set()
 
@@ -30,7 +34,6 @@ def free_port(host=LOOPBACK, rng=None):
     0, the kernel's choice) nor an outgoing connection can take it, and it is never one of
     the rostests' fixed ports. A port is given at most once per process. Falls back to the
     kernel's choice when the range is taken or overlaps the ephemeral range."""
-    import random
     rng = rng or random.SystemRandom()
     low, high = FREE_PORT_RANGE
     high = min(high, ephemeral_low())
@@ -61,10 +64,6 @@ def wait_for(predicate, timeout, what, interval=0.05):
         time.sleep(interval)
 
 
-#: the fixed ports of the rostest files (simulated controllers, the farm server), to which
-#: HARVEST_TEST_PORT_OFFSET is added (`$(eval N + int(optenv('HARVEST_TEST_PORT_OFFSET', '0')))`)
-TEST_PORTS = tuple(range(15000, 15100)) + (18431,)
-
 
 def port_is_free(port, host=LOOPBACK):
     """True when a TCP server could listen on ``port`` now."""
@@ -80,7 +79,6 @@ def free_port_offset(ports=TEST_PORTS, step=100, limit=400, rng=None):
     """A multiple of ``step`` that, added to each of ``ports``, gives only free ports and stays
     below the ephemeral range (32768): one per test suite, so two suites run side by side.
     Raises RuntimeError when none of ``limit`` tries is free."""
-    import random
     rng = rng or random.Random()
     highest = max(ports)
     choices = [k * step for k in range(0, (32768 - highest) // step)]
