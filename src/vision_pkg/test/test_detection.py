@@ -207,6 +207,43 @@ def test_white_gains_undo_a_cast_and_ignore_a_scene_without_white():
     assert TomatoDetector().white_gains(image) == pytest.approx(np.ones(3))
 
 
+#: BGR gains of a green cast (light through the canopy, or a camera balanced off to green):
+#: the film's chromaticity then has green 0.39, beyond `wb_max_green`
+GREEN_CAST = (0.9, 1.15, 0.9)
+
+
+def test_a_green_cast_is_undone_when_the_stereo_head_allows_it():
+    # the four stages under white film, under a green cast: with `wb_cast_fraction` (on for
+    # the stereo head in config/image_processing.yaml) the film, though greener than
+    # `wb_max_green`, is the white reference, and every fruit keeps the stage it has in
+    # neutral light; off (the default, the hand camera's), the cast stays
+    fruits = [scene.Fruit(-0.15, 0.05, 0.55, 0.035, 0.05), scene.Fruit(-0.05, 0.05, 0.55, 0.035, 0.4),
+              scene.Fruit(0.05, 0.05, 0.55, 0.035, 0.6), scene.Fruit(0.15, 0.05, 0.55, 0.035, 0.95)]
+    image, _, _ = scene.render(fruits, backdrop_depth=0.95, film_above=-0.1, gains=GREEN_CAST)
+    assert TomatoDetector().white_gains(image) == pytest.approx(np.ones(3))
+    detector = TomatoDetector(wb_cast_fraction=0.05)
+    corrected = detector.white_gains(image) * np.array(GREEN_CAST)
+    assert np.ptp(corrected / corrected.mean()) < 0.08, corrected
+    dets = detector.detect(image)
+    for fruit in fruits:
+        det = max(dets, key=lambda d: _match(d, fruit))
+        assert _match(det, fruit) >= 0.5, (fruit.ripeness, dets)
+        assert det.stage == stage_of(fruit.ripeness), (fruit.ripeness, det)
+
+
+def test_a_scene_with_its_white_reference_is_not_taken_for_a_green_cast():
+    # in neutral light and under the LED cast the film is within `wb_max_green`: the gains
+    # are the same with the green-cast rule on as off
+    fruits = [scene.Fruit(0.0, 0.05, 0.55, 0.035, 0.95)]
+    for gains in (WHITE_BALANCES['daylight'], WHITE_BALANCES['led']):
+        image, _, _ = scene.render(fruits, backdrop_depth=0.95, film_above=-0.1, gains=gains)
+        assert np.array_equal(TomatoDetector(wb_cast_fraction=0.05).white_gains(image),
+                              TomatoDetector().white_gains(image))
+    # a close-up of leaves (few pale pixels, all of them leaves): no cast is read into them
+    image, _, _ = scene.render(fruits, backdrop_depth=0.95)
+    assert TomatoDetector(wb_cast_fraction=0.05).white_gains(image) == pytest.approx(np.ones(3))
+
+
 def test_green_fruit_beside_leaves_of_their_colour_are_found_and_the_leaves_are_not():
     fruits = [scene.Fruit(-0.12, 0.0, 0.55, 0.035, 0.05), scene.Fruit(0.1, 0.06, 0.55, 0.03, 0.1)]
     leaves = [scene.Leaf(-0.035, 0.0, 0.56, 0.05, 0.022, 0.4, fruit_green=True),     # touching

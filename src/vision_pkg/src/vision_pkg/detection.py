@@ -68,6 +68,14 @@ DEFAULTS = {
     'wb_chroma_box': 0.16,      # candidates: each chromaticity within this of 1/3 ...
     'wb_max_green': 0.36,       # ... and green chromaticity at most this (no light is green)
     'wb_min_fraction': 0.003,   # fewer candidates (share of the pixels): no white reference
+    # a green cast (light through the canopy, a camera's white balance off to green): the
+    # scene's whites and greys are all greener than wb_max_green. When fewer than
+    # wb_cast_fraction of the pixels (0: off; a close-up of fruit and leaves, as the hand
+    # camera sees, has few pale pixels and those are leaves) and fewer than wb_cast_ratio of
+    # the candidates up to wb_max_green_cast are candidates, those greener ones are
+    'wb_max_green_cast': 0.40,
+    'wb_cast_fraction': 0.0,
+    'wb_cast_ratio': 0.35,
     'wb_max_gain': 2.0,         # per-channel gain limit
     'wb_level': 0.0,            # > 0: the gains also bring the white reference up to this
                                 # level (0..255; never down, at most wb_max_gain): exposure
@@ -210,12 +218,17 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         Reference candidates are unclipped, not dark pixels whose chromaticity an illuminant
         could give to a white or grey surface (film, pipes, specular highlights): within
         `wb_chroma_box` of neutral and never greener than `wb_max_green` (no greenhouse or
-        plant-factory light is green, but leaves are). Red or orange fruit skin lies outside
+        plant-factory light is that green, but leaves are). Red or orange fruit skin lies outside
         the box. The reference is the mean of the brightest `wb_top_fraction` of them
         (a sample of every 4th pixel in each direction); with fewer than `wb_min_fraction` of
-        the sample as candidates there is no white reference and the gains are 1. Gains keep
-        the mean brightness, or with `wb_level` > 0 raise the balanced reference to that level
-        when it is darker, and stay within [1 / wb_max_gain, wb_max_gain]."""
+        the sample as candidates there is no white reference and the gains are 1. Under a green
+        cast the scene's whites lie beyond that bound: with `wb_cast_fraction` > 0, when the
+        candidates are fewer than that share of the sample and fewer than `wb_cast_ratio` of
+        those up to `wb_max_green_cast`, the greener ones are the candidates (in the
+        development photos and the renders, 41 % or more of those are within wb_max_green,
+        under a green cast 27 % or less). Gains keep the mean brightness, or with `wb_level`
+        > 0 raise the balanced reference to that level when it is darker, and stay within
+        [1 / wb_max_gain, wb_max_gain]."""
         p = self.params
         ones = np.ones(3, dtype=np.float64)
         if not p['white_balance']:
@@ -231,8 +244,15 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         cand = (top < 250) & (top > 60)
         for channel in (b, g, r):
             cand &= np.abs(channel.astype(np.float32) / norm - neutral) <= box
-        cand &= g.astype(np.float32) / norm <= float(p['wb_max_green'])
-        count = np.count_nonzero(cand)
+        green = g.astype(np.float32) / norm
+        strict = cand & (green <= float(p['wb_max_green']))
+        count = np.count_nonzero(strict)
+        if count < float(p['wb_cast_fraction']) * len(pix):
+            cast = cand & (green <= float(p['wb_max_green_cast']))
+            count_cast = np.count_nonzero(cast)
+            if count < float(p['wb_cast_ratio']) * count_cast:
+                strict, count = cast, count_cast
+        cand = strict
         if count < max(20, float(p['wb_min_fraction']) * len(pix)):
             return ones
         total = total[cand]
