@@ -78,6 +78,10 @@ def test_run_photos_counts_the_labelled_fruit_and_runs_every_variant(tmp_path):
     assert (as_taken['tp'], as_taken['fp'], as_taken['fn']) == (3, 1, 0)
     assert any(line.startswith('  ripe F1 over the %d variants' % len(PHOTO_VARIANTS))
                for line in lines), lines
+    # with --min-care-radius 10 the 15 px label counts: a miss
+    args.min_care_radius, args.photo_variants = 10.0, False
+    figures = bench.run_photos(args, log=lines.append)
+    assert (figures['tp'], figures['fp'], figures['fn']) == (3, 1, 1), lines
 
 
 def test_run_photos_without_a_folder_says_so():

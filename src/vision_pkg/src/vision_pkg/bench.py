@@ -140,14 +140,18 @@ def run(args, log=print):
 
 
 # ------------------------------------------------------------------------------ real photos
-def _photo_truth(labels, scale, width, height, detector, min_visible):
-    """Ground truth of one photo scaled by `scale` (Evaluation.add's gts)."""
+def _photo_truth(labels, scale, width, height, detector, min_visible, min_radius=None):
+    """Ground truth of one photo scaled by `scale` (Evaluation.add's gts). A fruit smaller
+    than `min_radius` (px of the scaled photo; None: the detector's min_radius_px there) is
+    "don't care"."""
+    if min_radius is None:
+        min_radius = detector.min_radius_input(width)
     gts = []
     for f in labels:
         u, v, r = f['u'] * scale, f['v'] * scale, f['r'] * scale
         gts.append(dict(box=clip_box([u - r, v - r, u + r, v + r], width, height),
                         stage=f['stage'], id=f['id'], care=f['visible'] >= min_visible and
-                        r >= detector.min_radius_input(width)))
+                        r >= min_radius))
     return gts
 
 
@@ -176,7 +180,8 @@ def run_photos(args, log=print):
         s = args.photo_width / float(image.shape[1])
         image = cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         h, w = image.shape[:2]
-        gts = _photo_truth(labels[name], s, w, h, detector, args.min_visible)
+        gts = _photo_truth(labels[name], s, w, h, detector, args.min_visible,
+                           getattr(args, 'min_care_radius', None))
         photos.append((name, image, gts))
         times = []
         for _ in range(args.repeat):
@@ -262,6 +267,9 @@ def main(argv):
     parser.add_argument('--photo-variants', action='store_true',
                         help='also run the photos under photometric variants (white balance '
                              'casts, exposure, gamma, JPEG, blur) and print their ripe F1')
+    parser.add_argument('--min-care-radius', type=float, default=None, metavar='PX',
+                        help='photos: a labelled fruit of a smaller radius (px at --photo-width)'
+                             ' is "don\'t care" (default: the detector\'s min_radius_px)')
     parser.add_argument('-v', '--verbose', action='store_true', help='list every FP and FN')
     args = parser.parse_args(argv)
     if args.frames > 0:
