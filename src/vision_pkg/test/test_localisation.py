@@ -579,3 +579,72 @@ def test_fruit_radius_range_is_image_processings():
         config = yaml.safe_load(f)
     assert localisation.FRUIT_RADIUS_RANGE == (config['min_fruit_radius'],
                                                config['max_fruit_radius'])
+
+
+def _fruit_whose_part_is_a_fruit_in_front(own_depth_step=2, backdrop=None):
+    """A red fruit F (35 mm at 0.55 m) with a turning fruit O in front of it (30 mm at 0.47 m)
+    over its upper left, as long_row f19_1 behind f19_0: F's part (the detector's mask) holds
+    only O's skin inside F's circle, F's own skin is in no part of F (the detector gave it to
+    a neighbour's). O matches on every pixel, F's skin on every `own_depth_step`-th one; with
+    `backdrop` (m), what the rest of F's circle shows is the backdrop at that depth instead of
+    F (a circle with no fruit behind O). Returns (cloud, image, detection, F's true centre in
+    the left frame)."""
+    f_c, f_r = np.array([0.03, -0.02, 0.55]), 0.035
+    o_c, o_r = np.array([0.005, -0.045, 0.47]), 0.03
+    u0, v0 = scene.project(f_c)
+    r_px = scene.FOCAL * f_r / f_c[2]
+    y0, x0 = int(v0 - 2.0 * r_px), int(u0 - 2.0 * r_px)
+    vv, uu = np.mgrid[y0:int(v0 + 1.5 * r_px), x0:int(u0 + 1.5 * r_px)].astype(np.float64)
+    rays = _ray(uu, vv)
+    s_f, s_o = _sphere_hit(rays, f_c, f_r), _sphere_hit(rays, o_c, o_r)
+    in_circle = np.hypot(uu - u0, vv - v0) <= r_px
+    front = np.isfinite(s_o)
+    own = in_circle & ~front & (np.isfinite(s_f) if backdrop is None else True)
+    image = np.full((scene.HEIGHT, scene.WIDTH, 3), 90, np.uint8)
+    image[vv[front].astype(int), uu[front].astype(int)] = (40, 120, 220)     # orange
+    image[vv[own].astype(int), uu[own].astype(int)] = SKIN_BGR if backdrop is None else 90
+    depth = np.full(uu.shape, np.nan)
+    depth[front] = s_o[front]
+    sel = own & (uu % own_depth_step == 0) & (vv % own_depth_step == 0)
+    depth[sel] = s_f[sel] if backdrop is None else backdrop
+    ok = np.isfinite(depth)
+    cloud = _cloud_of(uu[ok], vv[ok], rays[ok] * depth[ok][:, None])
+    part = in_circle & front
+    cx0, cy0 = int(math.floor(u0 - r_px)) - 1, int(math.floor(v0 - r_px)) - 1
+    crop = part[cy0 - y0:int(math.ceil(v0 + r_px)) + 2 - y0,
+                cx0 - x0:int(math.ceil(u0 + r_px)) + 2 - x0]
+    det = Detection(u0, v0, r_px, 0.9, mask=crop.copy(), mask_origin=(cx0, cy0),
+                    mask_scale=1.0)
+    return cloud, image, det, f_c + np.array([scene.BASELINE, 0.0, 0.0])
+
+
+def test_a_fruit_whose_part_holds_only_a_fruit_in_front_is_found_by_its_own_skin():
+    """Its part gives the fruit in front's depth (long_row f19_1: 82 mm too near). Its own
+    skin, off its part in its circle, lies behind that sphere, where nothing can be seen
+    through an opaque fruit (seen_through): the fruit is at its skin's depth."""
+    cloud, image, det, truth = _fruit_whose_part_is_a_fruit_in_front()
+    alone = localisation.locate(cloud, det, P_RIGHT, image=image)
+    assert np.linalg.norm(alone.centre - truth) > 0.04, 'the test needs a wrong first location'
+    loc, = localisation.locate_all(cloud, [det], P_RIGHT, image=image)
+    assert np.linalg.norm(loc.centre - truth) < 0.003, loc
+    assert loc.radius == pytest.approx(0.035, abs=0.002)
+
+
+def test_a_circle_that_shows_the_backdrop_behind_a_fruit_in_front_has_no_3d_point():
+    """The rest of the circle shows the backdrop (0.95 m): no fruit's sphere there, and the
+    fruit in front is not this detection's either."""
+    cloud, image, det, truth = _fruit_whose_part_is_a_fruit_in_front(backdrop=0.95)
+    assert localisation.locate(cloud, det, P_RIGHT, image=image) is not None
+    assert localisation.locate_all(cloud, [det], P_RIGHT, image=image) == [None]
+
+
+def test_a_location_with_nothing_seen_through_it_is_kept_as_it_is(stereo_scene):
+    """Fruit whose circles show only their own skin (and points off their parts, if any, in
+    front of them or on them) keep the location `locate` gives, unchanged."""
+    cloud, pairs = stereo_scene
+    for fruit, det in pairs:
+        loc = localisation.locate(cloud, det, P_RIGHT)
+        assert localisation.seen_through(cloud, det, P_RIGHT, loc) is loc
+    cloud, image, det, truth = _occluded_fruit(behind_depth=0.55, skin_step=2)
+    loc = localisation.locate(cloud, det, P_RIGHT, image=image)
+    assert localisation.seen_through(cloud, det, P_RIGHT, loc, image) is loc

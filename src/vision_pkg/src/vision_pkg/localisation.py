@@ -90,7 +90,18 @@ of renders (664 located ripe fruit) that moves 4 fruit from 70-181 mm to 0.4-10 
 the other way; with a share of 0.1 it also took 2 fully
 visible fruit behind their skins (to 54 and 115 mm), while it moved long_row f19_3 from 27
 to 2 mm in one of the four live noise frames (its crescent behind f19_1 has 15 % of f19_1's
-points there). A fruit with fewer than
+points there). The part need not hold the fruit's skin at all: at long_row's point 19 the
+detector gave the skin of f19_1 where f19_3 lies behind it to f19_3's part, and f19_1's part
+held a piece of the turning fruit in front of f19_1 instead, so f19_1 was located at that
+fruit's depth, 82 mm too near. So every location is checked against the points of the
+detection's whole circle (`seen_through`): points off its part in the core of the circle
+that are ranged behind the located sphere (centre distance more than CLUSTER_GAP radii beyond
+its centre), at least SEEN_THROUGH_SHARE of the points on it, could not be seen through an
+opaque fruit; the fruit is then at the depth cluster of the circle's points with a fruit's
+radius that leaves fewer such points and has the most points on it, or has no 3D point.
+Points of the part itself are not counted: block matching ranges patches of a smooth skin far
+behind itself (0.1-0.6 m on renders), and the part's points were already weighed above.
+A fruit with fewer than
 min_points points in its core has only rim points, which block matching smears (a fruit outside
 the left camera's view got its 18 points from the background, 300 mm too far): no 3D point.
 """
@@ -141,6 +152,10 @@ TILT_MIN_SPREAD = 0.15
 #: locate_all: a fruit is in front of another when its centre is nearer by this share of the
 #: other's radius
 FRONT_MARGIN = 1.0
+#: seen_through: points off a fruit's part, in the core of its circle, ranged behind its
+#: located sphere, at least this share of the points on that sphere (and MIN_POINTS): the
+#: fruit is not there
+SEEN_THROUGH_SHARE = 0.5
 
 
 class FruitLocation(object):
@@ -523,8 +538,10 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
       circles, it is the fruit behind them when that puts it behind them by the margin; with
       too few points left, while each of them has min_points outside this circle, it has no
       3D point; otherwise it keeps its first location.
+    Last, every location is checked against the points of the detection's whole circle
+    (`seen_through`).
     Cost: at most one more `locate` per detection (and a point count per overlapping pair),
-    only where circles overlap."""
+    only where circles overlap, and one pass over each circle's points."""
     kwargs = dict(kwargs, image=image, radius_range=radius_range)
     first = [locate(cloud, d, right_p, **kwargs) for d in detections]
     dists = [None if loc is None else float(np.linalg.norm(loc.centre)) for loc in first]
@@ -547,7 +564,89 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
             elif all(_points_outside(cloud, detections[j], right_p, d) >= MIN_POINTS
                      for j in level):
                 out[i] = None
-    return out
+    # last, each location against the points of its whole circle
+    return [None if loc is None else seen_through(cloud, d, right_p, loc, image, radius_range)
+            for d, loc in zip(detections, out)]
+
+
+def points_in_circle(cloud, detection, right_p):
+    """(points, u, v): the valid cloud points (left optical frame) that project into the
+    detection's circle in the right image, whatever part they are on, with their pixel
+    coordinates there."""
+    p = np.asarray(right_p, dtype=np.float64).reshape(3, 4)
+    h, w = cloud.shape[:2]
+    x0, y0, bw, bh = detection.box(w, h)
+    if bw <= 0 or bh <= 0:
+        return np.zeros((0, 3)), np.zeros(0), np.zeros(0)
+    # rectified rows coincide; in the left image the fruit lies right of its right-image box
+    block = cloud[y0:y0 + bh, x0:, :].reshape(-1, 3)
+    z = block[:, 2]
+    pts = block[np.isfinite(z) & (z > 0)].astype(np.float64)
+    u = (p[0, 0] * pts[:, 0] + p[0, 1] * pts[:, 1] + p[0, 2] * pts[:, 2] + p[0, 3]) / pts[:, 2]
+    v = (p[1, 0] * pts[:, 0] + p[1, 1] * pts[:, 1] + p[1, 2] * pts[:, 2] + p[1, 3]) / pts[:, 2]
+    on = (u - detection.u) ** 2 + (v - detection.v) ** 2 <= detection.radius_px ** 2
+    return pts[on], u[on], v[on]
+
+
+def seen_through(cloud, detection, right_p, loc, image=None, radius_range=FRUIT_RADIUS_RANGE,
+                 min_points=MIN_POINTS, share=SEEN_THROUGH_SHARE):
+    """The detection's location `loc` checked against the points of its whole circle (module
+    docstring): `loc` when too few points off its part are seen behind it, else the depth
+    cluster of the circle's core points with a fruit's radius that leaves too few and has the
+    most points on its sphere (a FruitLocation at its median centre distance), else None."""
+    fx, fy, cx, cy, baseline = projection_params(right_p)
+    pts, pu, pv = points_in_circle(cloud, detection, right_p)
+    if len(pts) < min_points:
+        return loc
+    offset = np.array([baseline, 0.0, 0.0])
+    pr = pts - offset
+    axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
+    t = pr.dot(axis)
+    lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
+    core = np.nonzero(lateral < math.tan(EDGE_FRACTION * alpha) * t)[0]
+    foreign = ~detection.contains(pu[core], pv[core])
+    if np.count_nonzero(foreign) < min_points:
+        return loc
+    pu, pv, pr, t, lateral = pu[core], pv[core], pr[core], t[core], lateral[core]
+    sin_a = math.sin(alpha)
+    here = float((loc.centre - offset).dot(axis))
+    # a highlight point is pushed back by k R, at most the sphere's thickness there, so its
+    # centre distance is no farther than a skin point's at its place: too few points behind
+    # without the highlights is too few with them (the usual case, decided without the image)
+    if np.count_nonzero(foreign & (centre_distances(t, lateral, sin_a) >
+                                   here * (1.0 + CLUSTER_GAP * sin_a))) < min_points:
+        return loc
+    glint = on_highlight(image, detection, pu, pv) if image is not None else \
+        np.zeros(len(t), dtype=bool)
+    factor = highlight_factor(pu - detection.u, pv - detection.v, detection.radius_px) \
+        if glint.any() else np.full(len(t), 0.5)
+    dist = centre_distances(t, lateral, sin_a, glint, factor)
+
+    def verdict(centre):
+        """(points off the part seen behind a sphere at centre distance `centre`, too many?,
+        points on it)"""
+        gap = CLUSTER_GAP * centre * sin_a
+        behind = int(np.count_nonzero(foreign & (dist > centre + gap)))
+        on = int(np.count_nonzero(np.abs(dist - centre) <= gap))
+        return behind >= max(min_points, share * on), on
+
+    if not verdict(here)[0]:
+        return loc
+    best = None
+    for idx in depth_clusters(dist, sin_a):
+        if len(idx) < min_points:
+            continue
+        centre = float(np.median(dist[idx]))
+        if not radius_range[0] <= centre * sin_a <= radius_range[1]:
+            continue
+        seen, on = verdict(centre)
+        if not seen and (best is None or on > best[2]):
+            best = (centre, idx, on)
+    if best is None:
+        return None
+    centre, idx, _ = best
+    return FruitLocation(centre * axis + offset, centre * sin_a, len(idx),
+                         np.median(pr[idx], axis=0) + offset)
 
 
 def _points_outside(cloud, detection, right_p, other):
