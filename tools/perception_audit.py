@@ -4,8 +4,8 @@ The simulated stereo head adds one of NOISE_FRAMES sensor-noise frames per eye t
 (harvest_sim.render, `noise_key`), and which pair a mission's scan gets depends on how many frames
 each camera has rendered by then. A fruit that is located well in one pair and badly in another
 is a mission that passes or fails by timing. For each scenario and picking point this renders the
-NOISE_FRAMES x NOISE_FRAMES (right, left) pairs offline, runs the detector and `locate_all` as the
-image_processing node does, and prints one line per ripe reachable fruit of that point that is not
+NOISE_FRAMES x NOISE_FRAMES (right, left) pairs offline, runs the detector, `locate_all` and
+`regrade` as the image_processing node does, and prints one line per ripe reachable fruit of that point that is not
 found pickable (score >= the pickable threshold) within `--tolerance` of its centre in every pair,
 and one per point where an unripe fruit is taken for a pickable one:
 
@@ -72,9 +72,10 @@ def audit_point(scenario, point, renderer, fruits, geom, camera, detector, stere
         for kl, left in enumerate(lefts):
             cloud = localisation.offline_cloud(left, right, stereo, camera.fx, camera.fy,
                                                camera.cx, camera.cy, base)
-            located = [left_t[:3, :3].dot(loc.centre) + left_t[:3, 3]
-                       for d, loc in zip(detections, localisation.locate_all(
-                           cloud, detections, p_right, image=right))
+            found = localisation.regrade(detector, cloud, list(zip(
+                detections, localisation.locate_all(cloud, detections, p_right, image=right))),
+                p_right, right)
+            located = [left_t[:3, :3].dot(loc.centre) + left_t[:3, 3] for d, loc in found
                        if loc is not None and d.score >= PICKABLE]
             for f, e in zip(want, nearest_errors(located, [f.position for f in want])):
                 if e is None or e > tolerance:

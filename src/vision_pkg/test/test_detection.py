@@ -574,3 +574,25 @@ def test_fruit_behind_a_red_one_with_its_lower_bulge_keeps_its_own_circle(
         old = [d for d in TomatoDetector(refit_fill=0.35).detect(image)
                if math.hypot(d.u - front[0], d.v - front[1]) > 10]
         assert old and all(d.radius_px > 1.25 * r for d in old), (seed, old, r)
+
+
+def test_grade_at_grades_skin_pixels_as_detect_grades_a_fruit():
+    # a red patch and an orange one in front of white film (the white reference)
+    image = np.full((200, 300, 3), 60, np.uint8)
+    image[:40] = (235, 235, 235)
+    image[80:140, 40:100] = (30, 40, 170)       # red skin
+    image[80:140, 180:240] = (40, 160, 230)     # orange skin
+    det = TomatoDetector()
+    vv, uu = np.mgrid[80:140, 40:100]
+    red = det.grade_at(image, uu.ravel(), vv.ravel())
+    vv, uu = np.mgrid[80:140, 180:240]
+    orange = det.grade_at(image, uu.ravel(), vv.ravel())
+    assert red >= 0.7 > orange
+    # the same as the score of those pixels balanced by the scene's white reference
+    gains = det.white_gains(cv2.resize(image, None, fx=0.5, fy=0.5,
+                                       interpolation=cv2.INTER_AREA))
+    balanced = np.clip(np.rint(np.array([[30, 40, 170]]) * gains), 0, 255).astype(np.uint8)
+    assert red == pytest.approx(det.score_of(balanced)[0])
+    # dark, highlight or green pixels are not skin; too few skin pixels: no grade
+    assert det.grade_at(image, [10, 20], [10, 20]) is None
+    assert det.grade_at(image, uu.ravel()[:10], vv.ravel()[:10]) is None

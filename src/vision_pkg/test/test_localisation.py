@@ -601,7 +601,7 @@ def _fruit_whose_part_is_a_fruit_in_front(own_depth_step=2, backdrop=None):
     front = np.isfinite(s_o)
     own = in_circle & ~front & (np.isfinite(s_f) if backdrop is None else True)
     image = np.full((scene.HEIGHT, scene.WIDTH, 3), 90, np.uint8)
-    image[vv[front].astype(int), uu[front].astype(int)] = (40, 120, 220)     # orange
+    image[vv[front].astype(int), uu[front].astype(int)] = (40, 160, 230)     # orange
     image[vv[own].astype(int), uu[own].astype(int)] = SKIN_BGR if backdrop is None else 90
     depth = np.full(uu.shape, np.nan)
     depth[front] = s_o[front]
@@ -648,3 +648,37 @@ def test_a_location_with_nothing_seen_through_it_is_kept_as_it_is(stereo_scene):
     cloud, image, det, truth = _occluded_fruit(behind_depth=0.55, skin_step=2)
     loc = localisation.locate(cloud, det, P_RIGHT, image=image)
     assert localisation.seen_through(cloud, det, P_RIGHT, loc, image) is loc
+
+
+def test_a_fruit_whose_part_is_mostly_a_fruit_in_front_is_graded_by_its_own_skin():
+    """The detector graded the part, mostly the orange fruit in front (long_row f19_1: 0.64
+    for a fruit of 0.91); depth tells the fruit's own skin, and that is red."""
+    cloud, image, det, truth = _fruit_whose_part_is_a_fruit_in_front()
+    detector = TomatoDetector()
+    part = localisation.part_pixels(image, det)
+    det = det.with_score(detector.score_of(part)[0])
+    assert det.score < 0.7, 'the test needs a part graded unripe'
+    (loc,) = localisation.locate_all(cloud, [det], P_RIGHT, image=image)
+    skin = localisation.own_skin(cloud, det, P_RIGHT, loc, image)
+    assert skin is not None and len(skin[0]) >= 2 * localisation.MIN_POINTS
+    # every pixel of the sample is the fruit's own red skin, none the orange fruit's
+    assert np.all(image[np.rint(skin[1]).astype(int), np.rint(skin[0]).astype(int)] ==
+                  SKIN_BGR)
+    (graded, same), = localisation.regrade(detector, cloud, [(det, loc)], P_RIGHT, image)
+    assert same is loc
+    assert graded.score >= 0.7 and graded.stage == 3, graded
+    assert graded.score == pytest.approx(detector.grade_at(image, *skin))
+    assert (graded.u, graded.v, graded.radius_px) == (det.u, det.v, det.radius_px)
+    assert det.score < 0.7                        # a copy: the detection itself is unchanged
+
+
+def test_a_fruit_whose_part_is_its_own_skin_keeps_the_detectors_grade(stereo_scene):
+    cloud, pairs = stereo_scene
+    detector = TomatoDetector()
+    found = [(det, localisation.locate(cloud, det, P_RIGHT)) for _, det in pairs]
+    for (det, loc), (out, out_loc) in zip(found, localisation.regrade(
+            detector, cloud, found, P_RIGHT, None)):
+        assert localisation.own_skin(cloud, det, P_RIGHT, loc) is None
+        assert out is det and out_loc is loc
+    assert localisation.regrade(detector, cloud, [(pairs[0][1], None)], P_RIGHT, None) == \
+        [(pairs[0][1], None)]

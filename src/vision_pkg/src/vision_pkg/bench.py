@@ -89,6 +89,21 @@ def run(args, log=print):
         right, left = frame['right'], frame['left']
         h, w = right.shape[:2]
         dets, ms = _timed_detect(detector, right)
+        p_right = [frame['fx'], 0.0, frame['cx'], -frame['fx'] * frame['baseline'],
+                   0.0, frame['fy'], frame['cy'], 0.0, 0.0, 0.0, 1.0, 0.0]
+        cloud = locs = None
+        if dets:
+            t0 = time.perf_counter()
+            cloud = localisation.offline_cloud(left, right, stereo, frame['fx'], frame['fy'],
+                                               frame['cx'], frame['cy'], frame['baseline'])
+            bm_ms.append((time.perf_counter() - t0) * 1000.0)
+            # every detection, as the node does: their order in depth (locate_all), and the
+            # grade of a fruit whose part is mostly something in front of it (regrade)
+            t0 = time.perf_counter()
+            locs = localisation.locate_all(cloud, dets, p_right, image=right)
+            loc_ms.append((time.perf_counter() - t0) * 1000.0 / len(dets))
+            dets = [d for d, _ in localisation.regrade(detector, cloud, list(zip(dets, locs)),
+                                                       p_right, right)]
         gts = [dict(box=clip_box(g['box'], w, h), stage=stage_of(g['ripeness']), id=g['id'],
                     care=g['visible'] >= args.min_visible) for g in frame['fruits']]
         pairs = ev.add(frame['name'], dets, _det_boxes(dets, w, h), gts, ms)
@@ -97,25 +112,11 @@ def run(args, log=print):
             from vision_pkg.annotate import annotate
             cv2.imwrite(args.annotate_render, annotate(right, [(d, -1) for d in dets]))
             log('annotated render %s written to %s' % (frame['name'], args.annotate_render))
-        cloud = locs = None
-        p_right = [frame['fx'], 0.0, frame['cx'], -frame['fx'] * frame['baseline'],
-                   0.0, frame['fy'], frame['cy'], 0.0, 0.0, 0.0, 1.0, 0.0]
         for i, d in enumerate(dets):
             j = pairs.get(i)
             if j is None or not gts[j]['care'] or d.score < args.min_ripeness or \
                     frame['fruits'][j]['ripeness'] < RIPE:
                 continue
-            if cloud is None:
-                t0 = time.perf_counter()
-                cloud = localisation.offline_cloud(left, right, stereo, frame['fx'],
-                                                   frame['fy'], frame['cx'], frame['cy'],
-                                                   frame['baseline'])
-                bm_ms.append((time.perf_counter() - t0) * 1000.0)
-            if locs is None:
-                # every detection, as the node does: their order in depth (locate_all)
-                t0 = time.perf_counter()
-                locs = localisation.locate_all(cloud, dets, p_right, image=right)
-                loc_ms.append((time.perf_counter() - t0) * 1000.0 / len(dets))
             loc = locs[i]
             if loc is None:
                 no_point += 1

@@ -40,6 +40,15 @@ class Detection(object):
         self.chroma = float(chroma)
         self.behind = bool(behind)        # seen behind a fruit in front (split off its region)
 
+    def with_score(self, score):
+        """A copy of this detection with another ripeness score (and the stage it gives)."""
+        other = Detection.__new__(Detection)
+        for name in Detection.__slots__:
+            setattr(other, name, getattr(self, name))
+        other.score = float(score)
+        other.stage = stage_of(other.score)
+        return other
+
     def box(self, width=None, height=None):
         """(x, y, w, h) integer box around the fitted circle, clipped to the image if given."""
         x0 = int(math.floor(self.u - self.radius_px))

@@ -406,6 +406,8 @@ class ImageProcessingNode(HandCamera, ImageProcessingOutputs):
         sizes = (self.min_fruit_radius, self.max_fruit_radius)
         found = list(zip(detections, localisation.locate_all(cloud, detections, info.P, image=bgr,
                                                              radius_range=sizes)))
+        # a fruit whose part is mostly something in front of it is graded by its own skin
+        found = localisation.regrade(self.stereo_detector, cloud, found, info.P, bgr)
         with self._cache_lock:
             self._cache = (stamp, found)
         return found

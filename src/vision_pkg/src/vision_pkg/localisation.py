@@ -152,6 +152,9 @@ TILT_MIN_SPREAD = 0.15
 #: locate_all: a fruit is in front of another when its centre is nearer by this share of the
 #: other's radius
 FRONT_MARGIN = 1.0
+#: own_skin: a part whose inner points lie in front of the located fruit at least this share
+#: is mostly something in front of it, and the fruit's grade is taken from its own skin
+OWN_SKIN_FRONT_SHARE = 0.5
 #: seen_through: points off a fruit's part, in the core of its circle, ranged behind its
 #: located sphere, at least this share of the points on that sphere (and MIN_POINTS): the
 #: fruit is not there
@@ -647,6 +650,61 @@ def seen_through(cloud, detection, right_p, loc, image=None, radius_range=FRUIT_
     centre, idx, _ = best
     return FruitLocation(centre * axis + offset, centre * sin_a, len(idx),
                          np.median(pr[idx], axis=0) + offset)
+
+
+def own_skin(cloud, detection, right_p, loc, image=None, min_points=2 * MIN_POINTS,
+             share=OWN_SKIN_FRONT_SHARE):
+    """Right-image pixels (u, v) of the located fruit's own skin, to grade it by, when its
+    part is mostly something in front of it; else None. The detector grades a fruit by the
+    colour of its part, and a part can be mostly another fruit in front of it (long_row
+    f19_1, whose region held the orange half of the turning fruit f19_0 in front of it: 0.64
+    for a fruit of 0.91). Depth tells them apart: when at least `share` of the part's points
+    within 0.85 r lie in front of the located sphere (centre distance more than CLUSTER_GAP
+    radii nearer), the pixels of the circle's points within 0.85 r on that sphere (off the
+    highlight), at least `min_points` of them, are the skin."""
+    fx, fy, cx, cy, baseline = projection_params(right_p)
+    pts, pu, pv = points_in_circle(cloud, detection, right_p)
+    inner = np.hypot(pu - detection.u, pv - detection.v) <= 0.85 * detection.radius_px
+    if np.count_nonzero(inner) < min_points:
+        return None
+    pts, pu, pv = pts[inner], pu[inner], pv[inner]
+    offset = np.array([baseline, 0.0, 0.0])
+    pr = pts - offset
+    axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
+    t = pr.dot(axis)
+    lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
+    sin_a = math.sin(alpha)
+    glint = on_highlight(image, detection, pu, pv) if image is not None else \
+        np.zeros(len(t), dtype=bool)
+    factor = highlight_factor(pu - detection.u, pv - detection.v, detection.radius_px) \
+        if glint.any() else np.full(len(t), 0.5)
+    dist = centre_distances(t, lateral, sin_a, glint, factor)
+    here = float((loc.centre - offset).dot(axis))
+    gap = CLUSTER_GAP * here * sin_a
+    part = detection.contains(pu, pv)
+    if not part.any() or np.count_nonzero(part & (dist < here - gap)) < \
+            share * np.count_nonzero(part):
+        return None
+    on = (np.abs(dist - here) <= gap) & ~glint
+    if np.count_nonzero(on) < min_points:
+        return None
+    return pu[on], pv[on]
+
+
+def regrade(detector, cloud, found, right_p, image):
+    """[(detection, location)] with each located fruit whose part is mostly something in
+    front of it graded by its own skin instead (own_skin; detector.grade_at), as a copy of
+    its detection with that score; the others as they are."""
+    out = []
+    for det, loc in found:
+        if loc is not None:
+            skin = own_skin(cloud, det, right_p, loc, image)
+            if skin is not None:
+                score = detector.grade_at(image, skin[0], skin[1])
+                if score is not None:
+                    det = det.with_score(score)
+        out.append((det, loc))
+    return out
 
 
 def _points_outside(cloud, detection, right_p, other):
