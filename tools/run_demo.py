@@ -25,6 +25,7 @@ import time
 
 from control_pkg.mission import SCHEDULES
 from harvest_sim.instance import free_port, sim_launch_args
+from harvest_sim.truth import ground_truth_counts, wait_fruits_at_rest
 
 DEFAULT_TIMEOUT = 900.0   # wall seconds
 #: sim.launch's time scale (most simulated seconds per wall second; the clock runs at real time
@@ -39,12 +40,6 @@ WIRE_ACTIONS = (('self_test', 'Start'), ('move_base', 'MoveBase'), ('tomato_scan
                 ('visual_servo', 'VisualServo'))
 
 
-def ground_truth_counts(summary):
-    """(ripe reachable, harvested, damaged) from harvest_sim's GetSimSummary response."""
-    return (int(summary.ripe_reachable), int(summary.harvested + summary.collected),
-            int(summary.dropped + summary.damaged))
-
-
 def fatal_lines(log_path, limit=3):
     """The [FATAL] lines of a launch log (a node that could not start, e.g. its port taken)."""
     try:
@@ -53,39 +48,6 @@ def fatal_lines(log_path, limit=3):
     except OSError:
         return []
     return lines[:limit]
-
-
-def fruit_in_hand(fruits):
-    """Ids of the simulator's fruit still on the suction sleeve (held, or cut and not let go)."""
-    from harvest_sim.msg import SimFruit
-    return [f.id for f in fruits if f.state in (SimFruit.HELD, SimFruit.HARVESTED)]
-
-
-def wait_fruits_at_rest(launch, timeout=30.0):
-    """Wait (ROS time, at most `timeout` s) until no fruit is on the suction sleeve. The mission's
-    end and the valve's last closing reach the world on different topics, so the summary can
-    come before the world has let the last fruit go into the box: read at once, the ground truth
-    counted it missing (load-check empty_point, 'executive record 4, box 3', one run in several)."""
-    import rospy
-    from harvest_sim.msg import SimFruitArray
-    cond = threading.Condition()
-    latest = {}
-
-    def on_fruits(msg):
-        with cond:
-            latest['fruits'] = list(msg.fruits)
-            cond.notify_all()
-    sub = rospy.Subscriber('/sim/fruits', SimFruitArray, on_fruits)
-    try:
-        deadline = rospy.get_time() + timeout
-        with cond:
-            while not rospy.is_shutdown() and launch.poll() is None and \
-                    rospy.get_time() < deadline and \
-                    ('fruits' not in latest or fruit_in_hand(latest['fruits'])):
-                cond.wait(0.5)
-            return latest.get('fruits')
-    finally:
-        sub.unregister()
 
 
 def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):

@@ -37,13 +37,3 @@ def test_fatal_lines(run_demo, tmp_path):
     assert run_demo.fatal_lines(str(log)) == [
         '[FATAL] [1.0, 2.0]: cannot listen on 127.0.0.1:5020: the port is taken']
     assert run_demo.fatal_lines(str(tmp_path / 'missing.log')) == []
-
-
-def test_ground_truth_waits_for_the_fruit_on_the_suction_sleeve(run_demo):
-    # the summary can arrive before the world lets the last fruit go into the box: the fruit
-    # still held (or cut and not let go) are what the ground truth must wait for
-    from harvest_sim.msg import SimFruit
-    fruits = [SimFruit(id='a', state=SimFruit.COLLECTED), SimFruit(id='b', state=SimFruit.HARVESTED),
-              SimFruit(id='c', state=SimFruit.HELD), SimFruit(id='d', state=SimFruit.HANGING)]
-    assert run_demo.fruit_in_hand(fruits) == ['b', 'c']
-    assert run_demo.fruit_in_hand(fruits[:1] + fruits[3:]) == []

@@ -73,7 +73,7 @@ def run_line(scale, res):
     split = res.get('split', {})
     return ('time scale %g: speed reached %.2f (%.0f s sim in %.1f s wall: %.1f s moving, %.1f s '
             'at rest, %.1f s held by cameras; launch to summary %.1f s); mission %s, picked %s '
-            'of %s ripe reachable (truth: collected %s, dropped %s, damaged %s), mean cycle %s '
+            'of %s ripe reachable (truth: harvested %s, dropped %s, damaged %s), mean cycle %s '
             's/fruit (sim)' % (
                 scale, res['speed'], res['sim'], res['wall'], split.get('fast', 0.0),
                 split.get('rest', 0.0), split.get('held', 0.0), res['wall_total'],

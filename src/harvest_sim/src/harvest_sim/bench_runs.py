@@ -169,10 +169,14 @@ def _measure_mission(launch, wall0, wall_limit, profile):
            'wall_total': end[0] - wall0, 'split': split}
     res['speed'] = res['sim'] / res['wall'] if res['wall'] > 0 else 0.0
     from harvest_sim.srv import GetSimSummary
+    from harvest_sim.truth import ground_truth_counts, wait_fruits_at_rest
     try:
+        # the last fruit can still be on its way into the box when the summary comes
+        wait_fruits_at_rest(launch)
         rospy.wait_for_service('/sim/get_summary', timeout=10.0)
         t = rospy.ServiceProxy('/sim/get_summary', GetSimSummary)()
-        res['truth'] = {'ripe_reachable': t.ripe_reachable, 'collected': t.collected,
+        ripe_reachable, harvested, _ = ground_truth_counts(t)
+        res['truth'] = {'ripe_reachable': ripe_reachable, 'collected': harvested,
                         'dropped': t.dropped, 'damaged': t.damaged}
     except (rospy.ROSException, rospy.ServiceException) as exc:
         res['truth'] = {'error': str(exc)}
