@@ -265,6 +265,30 @@ def test_a_fruit_with_only_rim_points_has_no_3d_point():
         < 0.002
 
 
+def _two_spheres(centre, radius, other, other_radius, before, after):
+    """The pixel grid around a sphere's circle in the right image (from `before` radii up-left
+    of its centre to `after` radii down-right) and where its rays hit it and another sphere:
+    ((u0, v0, r_px) of its circle, (x0, y0) of the grid, (uu, vv, rays), (depth scale on it,
+    on the other), NaN for a miss)."""
+    u0, v0 = scene.project(centre)
+    r_px = scene.FOCAL * radius / centre[2]
+    y0, x0 = int(v0 - before * r_px), int(u0 - before * r_px)
+    vv, uu = np.mgrid[y0:int(v0 + after * r_px), x0:int(u0 + after * r_px)].astype(np.float64)
+    rays = _ray(uu, vv)
+    return (u0, v0, r_px), (x0, y0), (uu, vv, rays), \
+        (_sphere_hit(rays, centre, radius), _sphere_hit(rays, other, other_radius))
+
+
+def _with_part(u0, v0, r_px, score, part, x0, y0):
+    """A detection of circle (u0, v0, r_px) whose part is `part` (a bool grid whose pixel
+    [0, 0] is the image's (x0, y0)), cropped to the circle's box as the detector keeps it."""
+    cx0, cy0 = int(math.floor(u0 - r_px)) - 1, int(math.floor(v0 - r_px)) - 1
+    crop = part[cy0 - y0:int(math.ceil(v0 + r_px)) + 2 - y0,
+                cx0 - x0:int(math.ceil(u0 + r_px)) + 2 - x0]
+    return Detection(u0, v0, r_px, score, mask=crop.copy(), mask_origin=(cx0, cy0),
+                     mask_scale=1.0)
+
+
 def _fruit_behind_a_neighbour(back_step=2, front_step=1):
     """A red fruit (the detection's circle, radius 35 mm at 0.60 m) whose part also holds a
     neighbour of the same colour in front of it (33 mm at 0.53 m, to its left and overlapping
@@ -274,12 +298,8 @@ def _fruit_behind_a_neighbour(back_step=2, front_step=1):
     the fruit and of the neighbour in the left frame)."""
     back_c, back_r = np.array([0.03, -0.02, 0.60]), 0.035
     front_c, front_r = np.array([-0.012, -0.016, 0.53]), 0.033
-    u0, v0 = scene.project(back_c)
-    r_px = scene.FOCAL * back_r / back_c[2]
-    y0, x0 = int(v0 - 2.2 * r_px), int(u0 - 2.2 * r_px)
-    vv, uu = np.mgrid[y0:int(v0 + 1.6 * r_px), x0:int(u0 + 1.6 * r_px)].astype(np.float64)
-    rays = _ray(uu, vv)
-    s_back, s_front = _sphere_hit(rays, back_c, back_r), _sphere_hit(rays, front_c, front_r)
+    (u0, v0, r_px), (x0, y0), (uu, vv, rays), (s_back, s_front) = _two_spheres(
+        back_c, back_r, front_c, front_r, 2.2, 1.6)
     front = np.isfinite(s_front)
     back = np.isfinite(s_back) & ~front
     image = np.full((scene.HEIGHT, scene.WIDTH, 3), 90, np.uint8)
@@ -292,11 +312,7 @@ def _fruit_behind_a_neighbour(back_step=2, front_step=1):
     depth[sel] = s_back[sel]
     ok = np.isfinite(depth)
     cloud = _cloud_of(uu[ok], vv[ok], rays[ok] * depth[ok][:, None])
-    # the part's mask cropped to the circle's box, as the detector keeps it
-    cx0, cy0 = int(math.floor(u0 - r_px)) - 1, int(math.floor(v0 - r_px)) - 1
-    crop = part[cy0 - y0:int(math.ceil(v0 + r_px)) + 2 - y0,
-                cx0 - x0:int(math.ceil(u0 + r_px)) + 2 - x0]
-    det = Detection(u0, v0, r_px, 0.95, mask=crop.copy(), mask_origin=(cx0, cy0), mask_scale=1.0)
+    det = _with_part(u0, v0, r_px, 0.95, part, x0, y0)
     offset = np.array([scene.BASELINE, 0.0, 0.0])
     return cloud, image, det, back_c + offset, front_c + offset
 
@@ -590,13 +606,8 @@ def _fruit_whose_part_is_a_fruit_in_front(own_depth_step=2, backdrop=None):
     F (a circle with no fruit behind O). Returns (cloud, image, detection, F's true centre in
     the left frame)."""
     f_c, f_r = np.array([0.03, -0.02, 0.55]), 0.035
-    o_c, o_r = np.array([0.005, -0.045, 0.47]), 0.03
-    u0, v0 = scene.project(f_c)
-    r_px = scene.FOCAL * f_r / f_c[2]
-    y0, x0 = int(v0 - 2.0 * r_px), int(u0 - 2.0 * r_px)
-    vv, uu = np.mgrid[y0:int(v0 + 1.5 * r_px), x0:int(u0 + 1.5 * r_px)].astype(np.float64)
-    rays = _ray(uu, vv)
-    s_f, s_o = _sphere_hit(rays, f_c, f_r), _sphere_hit(rays, o_c, o_r)
+    (u0, v0, r_px), (x0, y0), (uu, vv, rays), (s_f, s_o) = _two_spheres(
+        f_c, f_r, np.array([0.005, -0.045, 0.47]), 0.03, 2.0, 1.5)
     in_circle = np.hypot(uu - u0, vv - v0) <= r_px
     front = np.isfinite(s_o)
     own = in_circle & ~front & (np.isfinite(s_f) if backdrop is None else True)
@@ -609,12 +620,7 @@ def _fruit_whose_part_is_a_fruit_in_front(own_depth_step=2, backdrop=None):
     depth[sel] = s_f[sel] if backdrop is None else backdrop
     ok = np.isfinite(depth)
     cloud = _cloud_of(uu[ok], vv[ok], rays[ok] * depth[ok][:, None])
-    part = in_circle & front
-    cx0, cy0 = int(math.floor(u0 - r_px)) - 1, int(math.floor(v0 - r_px)) - 1
-    crop = part[cy0 - y0:int(math.ceil(v0 + r_px)) + 2 - y0,
-                cx0 - x0:int(math.ceil(u0 + r_px)) + 2 - x0]
-    det = Detection(u0, v0, r_px, 0.9, mask=crop.copy(), mask_origin=(cx0, cy0),
-                    mask_scale=1.0)
+    det = _with_part(u0, v0, r_px, 0.9, in_circle & front, x0, y0)
     return cloud, image, det, f_c + np.array([scene.BASELINE, 0.0, 0.0])
 
 
