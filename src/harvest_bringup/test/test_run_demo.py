@@ -37,3 +37,23 @@ def test_fatal_lines(run_demo, tmp_path):
     assert run_demo.fatal_lines(str(log)) == [
         '[FATAL] [1.0, 2.0]: cannot listen on 127.0.0.1:5020: the port is taken']
     assert run_demo.fatal_lines(str(tmp_path / 'missing.log')) == []
+
+
+def test_ground_truth_waits_for_the_fruit_on_the_suction_sleeve():
+    # the summary can arrive before the world lets the last fruit go into the box: the fruit
+    # still held (or cut and not let go) are what the ground truth must wait for
+    # (harvest_sim.truth, used by run_demo and bench_sim; here, where the tools' tests are)
+    from harvest_sim.msg import SimFruit
+    from harvest_sim.truth import fruit_in_hand
+    fruits = [SimFruit(id='a', state=SimFruit.COLLECTED), SimFruit(id='b', state=SimFruit.HARVESTED),
+              SimFruit(id='c', state=SimFruit.HELD), SimFruit(id='d', state=SimFruit.HANGING)]
+    assert fruit_in_hand(fruits) == ['b', 'c']
+    assert fruit_in_hand(fruits[:1] + fruits[3:]) == []
+
+
+def test_a_fruit_cut_and_still_on_the_sleeve_counts_as_harvested():
+    from harvest_sim.srv import GetSimSummaryResponse
+    from harvest_sim.truth import ground_truth_counts
+    summary = GetSimSummaryResponse(ripe_reachable=6, collected=5, harvested=1, dropped=1,
+                                    damaged=1)
+    assert ground_truth_counts(summary) == (6, 6, 2)

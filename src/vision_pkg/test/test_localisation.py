@@ -16,11 +16,15 @@ P_RIGHT = [scene.FOCAL, 0.0, scene.CX, -scene.FOCAL * scene.BASELINE,
            0.0, scene.FOCAL, scene.CY, 0.0, 0.0, 0.0, 1.0, 0.0]
 
 
+#: the stereo_scene fixture's fruit
+STEREO_FRUITS = [scene.Fruit(-0.12, 0.02, 0.45, 0.035, 0.95),
+                 scene.Fruit(0.08, -0.05, 0.60, 0.03, 0.9),
+                 scene.Fruit(0.02, 0.12, 0.75, 0.04, 0.8)]
+
+
 @pytest.fixture(scope='module')
 def stereo_scene():
-    fruits = [scene.Fruit(-0.12, 0.02, 0.45, 0.035, 0.95),
-              scene.Fruit(0.08, -0.05, 0.60, 0.03, 0.9),
-              scene.Fruit(0.02, 0.12, 0.75, 0.04, 0.8)]
+    fruits = STEREO_FRUITS
     right, _, _ = scene.render(fruits, (), 'right', backdrop_depth=0.95)
     left, _, _ = scene.render(fruits, (), 'left', backdrop_depth=0.95)
     cloud = localisation.offline_cloud(left, right, STEREO, scene.FOCAL, scene.FOCAL, scene.CX,
@@ -680,11 +684,15 @@ def test_a_fruit_whose_part_is_mostly_a_fruit_in_front_is_graded_by_its_own_skin
 
 def test_a_fruit_whose_part_is_its_own_skin_keeps_the_detectors_grade(stereo_scene):
     cloud, pairs = stereo_scene
+    right, _, _ = scene.render(STEREO_FRUITS, (), 'right', backdrop_depth=0.95)
     detector = TomatoDetector()
-    found = [(det, localisation.locate(cloud, det, P_RIGHT)) for _, det in pairs]
+    found = [(det, localisation.locate(cloud, det, P_RIGHT, image=right)) for _, det in pairs]
     for (det, loc), (out, out_loc) in zip(found, localisation.regrade(
-            detector, cloud, found, P_RIGHT, None)):
-        assert localisation.own_skin(cloud, det, P_RIGHT, loc) is None
+            detector, cloud, found, P_RIGHT, right)):
+        assert loc is not None
+        assert localisation.own_skin(cloud, det, P_RIGHT, loc, right) is None
         assert out is det and out_loc is loc
-    assert localisation.regrade(detector, cloud, [(pairs[0][1], None)], P_RIGHT, None) == \
+    # no location or no image: nothing to grade by
+    assert localisation.regrade(detector, cloud, [(pairs[0][1], None)], P_RIGHT, right) == \
         [(pairs[0][1], None)]
+    assert localisation.regrade(detector, cloud, found, P_RIGHT, None) == found

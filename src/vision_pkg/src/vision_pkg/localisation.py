@@ -591,21 +591,37 @@ def points_in_circle(cloud, detection, right_p):
     return pts[on], u[on], v[on]
 
 
+def _circle_rays(cloud, detection, right_p):
+    """The points of the detection's circle (points_in_circle) on its centre ray:
+    (u, v, points relative to the right camera, t along the ray, lateral offset from it, the
+    ray's axis, its angular radius alpha, the right camera's centre in the cloud frame)."""
+    fx, fy, cx, cy, baseline = projection_params(right_p)
+    pts, pu, pv = points_in_circle(cloud, detection, right_p)
+    offset = np.array([baseline, 0.0, 0.0])
+    pr = pts - offset
+    axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
+    t = pr.dot(axis)
+    lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
+    return pu, pv, pr, t, lateral, axis, alpha, offset
+
+
+def _ranged_centre_distances(image, detection, pu, pv, t, lateral, sin_a):
+    """(centre distances, on the highlight?) of points of a circle, as `locate` ranges them:
+    highlight points (given the image) as the light's virtual image."""
+    glint = on_highlight(image, detection, pu, pv) if image is not None else \
+        np.zeros(len(t), dtype=bool)
+    factor = highlight_factor(pu - detection.u, pv - detection.v, detection.radius_px) \
+        if glint.any() else np.full(len(t), 0.5)
+    return centre_distances(t, lateral, sin_a, glint, factor), glint
+
+
 def seen_through(cloud, detection, right_p, loc, image=None, radius_range=FRUIT_RADIUS_RANGE,
                  min_points=MIN_POINTS, share=SEEN_THROUGH_SHARE):
     """The detection's location `loc` checked against the points of its whole circle (module
     docstring): `loc` when too few points off its part are seen behind it, else the depth
     cluster of the circle's core points with a fruit's radius that leaves too few and has the
     most points on its sphere (a FruitLocation at its median centre distance), else None."""
-    fx, fy, cx, cy, baseline = projection_params(right_p)
-    pts, pu, pv = points_in_circle(cloud, detection, right_p)
-    if len(pts) < min_points:
-        return loc
-    offset = np.array([baseline, 0.0, 0.0])
-    pr = pts - offset
-    axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
-    t = pr.dot(axis)
-    lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
+    pu, pv, pr, t, lateral, axis, alpha, offset = _circle_rays(cloud, detection, right_p)
     core = np.nonzero(lateral < math.tan(EDGE_FRACTION * alpha) * t)[0]
     foreign = ~detection.contains(pu[core], pv[core])
     if np.count_nonzero(foreign) < min_points:
@@ -619,14 +635,10 @@ def seen_through(cloud, detection, right_p, loc, image=None, radius_range=FRUIT_
     if np.count_nonzero(foreign & (centre_distances(t, lateral, sin_a) >
                                    here * (1.0 + CLUSTER_GAP * sin_a))) < min_points:
         return loc
-    glint = on_highlight(image, detection, pu, pv) if image is not None else \
-        np.zeros(len(t), dtype=bool)
-    factor = highlight_factor(pu - detection.u, pv - detection.v, detection.radius_px) \
-        if glint.any() else np.full(len(t), 0.5)
-    dist = centre_distances(t, lateral, sin_a, glint, factor)
+    dist, _ = _ranged_centre_distances(image, detection, pu, pv, t, lateral, sin_a)
 
     def verdict(centre):
-        """(points off the part seen behind a sphere at centre distance `centre`, too many?,
+        """(too many points off the part seen behind a sphere at centre distance `centre`?,
         points on it)"""
         gap = CLUSTER_GAP * centre * sin_a
         behind = int(np.count_nonzero(foreign & (dist > centre + gap)))
@@ -662,23 +674,13 @@ def own_skin(cloud, detection, right_p, loc, image=None, min_points=2 * MIN_POIN
     within 0.85 r lie in front of the located sphere (centre distance more than CLUSTER_GAP
     radii nearer), the pixels of the circle's points within 0.85 r on that sphere (off the
     highlight), at least `min_points` of them, are the skin."""
-    fx, fy, cx, cy, baseline = projection_params(right_p)
-    pts, pu, pv = points_in_circle(cloud, detection, right_p)
+    pu, pv, _, t, lateral, axis, alpha, offset = _circle_rays(cloud, detection, right_p)
     inner = np.hypot(pu - detection.u, pv - detection.v) <= 0.85 * detection.radius_px
     if np.count_nonzero(inner) < min_points:
         return None
-    pts, pu, pv = pts[inner], pu[inner], pv[inner]
-    offset = np.array([baseline, 0.0, 0.0])
-    pr = pts - offset
-    axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
-    t = pr.dot(axis)
-    lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
+    pu, pv, t, lateral = pu[inner], pv[inner], t[inner], lateral[inner]
     sin_a = math.sin(alpha)
-    glint = on_highlight(image, detection, pu, pv) if image is not None else \
-        np.zeros(len(t), dtype=bool)
-    factor = highlight_factor(pu - detection.u, pv - detection.v, detection.radius_px) \
-        if glint.any() else np.full(len(t), 0.5)
-    dist = centre_distances(t, lateral, sin_a, glint, factor)
+    dist, glint = _ranged_centre_distances(image, detection, pu, pv, t, lateral, sin_a)
     here = float((loc.centre - offset).dot(axis))
     gap = CLUSTER_GAP * here * sin_a
     part = detection.contains(pu, pv)
@@ -693,11 +695,12 @@ def own_skin(cloud, detection, right_p, loc, image=None, min_points=2 * MIN_POIN
 
 def regrade(detector, cloud, found, right_p, image):
     """[(detection, location)] with each located fruit whose part is mostly something in
-    front of it graded by its own skin instead (own_skin; detector.grade_at), as a copy of
-    its detection with that score; the others as they are."""
+    front of it graded by its own skin instead (own_skin; detector.grade_at on `image`, the
+    BGR image the detections were made on), as a copy of its detection with that score; the
+    others as they are (all of them without an image)."""
     out = []
     for det, loc in found:
-        if loc is not None:
+        if loc is not None and image is not None:
             skin = own_skin(cloud, det, right_p, loc, image)
             if skin is not None:
                 score = detector.grade_at(image, skin[0], skin[1])
