@@ -669,6 +669,8 @@ def test_a_fruit_whose_part_is_mostly_a_fruit_in_front_is_graded_by_its_own_skin
     det = det.with_score(detector.score_of(part)[0])
     assert det.score < 0.7, 'the test needs a part graded unripe'
     (loc,) = localisation.locate_all(cloud, [det], P_RIGHT, image=image)
+    # located by its own skin off its part: (almost) none of the part's points are the fruit
+    assert loc.part_share < 0.05
     skin = localisation.own_skin(cloud, det, P_RIGHT, loc, image)
     assert skin is not None and len(skin[0]) >= 2 * localisation.MIN_POINTS
     # every pixel of the sample is the fruit's own red skin, none the orange fruit's
@@ -689,7 +691,7 @@ def test_a_fruit_whose_part_is_its_own_skin_keeps_the_detectors_grade(stereo_sce
     found = [(det, localisation.locate(cloud, det, P_RIGHT, image=right)) for _, det in pairs]
     for (det, loc), (out, out_loc) in zip(found, localisation.regrade(
             detector, cloud, found, P_RIGHT, right)):
-        assert loc is not None
+        assert loc is not None and loc.part_share == 1.0    # regrade does not even look
         assert localisation.own_skin(cloud, det, P_RIGHT, loc, right) is None
         assert out is det and out_loc is loc
     # no location or no image: nothing to grade by

@@ -164,13 +164,16 @@ SEEN_THROUGH_SHARE = 0.5
 class FruitLocation(object):
     """Fruit centre and radius, in the cloud (left optical) frame."""
 
-    __slots__ = ('centre', 'radius', 'points', 'surface')
+    __slots__ = ('centre', 'radius', 'points', 'surface', 'part_share')
 
-    def __init__(self, centre, radius, points, surface):
+    def __init__(self, centre, radius, points, surface, part_share=None):
         self.centre = np.asarray(centre, dtype=np.float64)
         self.radius = float(radius)
         self.points = int(points)          # valid cloud points used
         self.surface = np.asarray(surface, dtype=np.float64)   # median surface point
+        # share of the points in the core of the detection's part that are the fruit as
+        # located (its depth cluster); None: not known
+        self.part_share = None if part_share is None else float(part_share)
 
     def __repr__(self):
         return 'FruitLocation(centre=%s, radius=%.4f, points=%d)' % (
@@ -456,7 +459,8 @@ def hidden_behind(fits, chosen, dist, min_points=MIN_POINTS, min_share=BEHIND_MI
 
 
 def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image=None,
-           specular_ratio=SPECULAR_RATIO, radius_range=FRUIT_RADIUS_RANGE, hidden=()):
+           specular_ratio=SPECULAR_RATIO, radius_range=FRUIT_RADIUS_RANGE, hidden=(),
+           circle_points=None):
     """FruitLocation of a detection (cloud frame), or None when too few valid points (in all,
     or in the core of its silhouette).
 
@@ -464,9 +468,10 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
     on the specular highlight are ranged as its virtual image, and of several depth clusters
     the fruit's skin is kept (module docstring). radius_range: a fruit's 3D radius (m).
     hidden: circles (u, v, radius_px) of fruit in front of this one: their points are not its
-    (`locate_all`)."""
+    (`locate_all`). circle_points: the detection's points_in_circle, if known."""
     fx, fy, cx, cy, baseline = projection_params(right_p)
-    pts, pu, pv = points_on_fruit(cloud, detection, right_p, pixels=True)
+    pts, pu, pv = points_on_fruit(cloud, detection, right_p, pixels=True) \
+        if circle_points is None else _on_part(detection, circle_points)
     if len(hidden):
         mine = np.ones(len(pts), dtype=bool)
         for hu, hv, hr in hidden:
@@ -488,6 +493,7 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
     core = np.nonzero(lateral < math.tan(EDGE_FRACTION * alpha) * t)[0]
     if len(core) < min_points:
         return None
+    part_share = 1.0        # every point is the fruit's, unless a cluster is chosen below
     if image is not None:
         centre_d = centre_distances(t[core], lateral[core], sin_a, glint[core], factor[core])
         clusters = depth_clusters(centre_d, sin_a)
@@ -505,6 +511,7 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
             offsets = np.c_[pu[core] - detection.u, pv[core] - detection.v] / detection.radius_px
             fruit = fruit_cluster(clusters, centre_d, sin_a, colour, min_points, radius_range,
                                   in_outline=in_outline, offsets=offsets)
+            part_share = None if fruit is None else len(fruit) / float(len(core))
             if fruit is not None:
                 keep = core[fruit]
                 pts, pr, t, lateral, glint = pts[keep], pr[keep], t[keep], lateral[keep], \
@@ -524,7 +531,7 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
         radius = dist * sin_a
     surface = np.median(pr[lateral < EDGE_FRACTION * radius], axis=0) \
         if (lateral < EDGE_FRACTION * radius).any() else np.median(pr, axis=0)
-    return FruitLocation(dist * axis + offset, radius, len(pts), surface + offset)
+    return FruitLocation(dist * axis + offset, radius, len(pts), surface + offset, part_share)
 
 
 def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS_RANGE,
@@ -546,7 +553,10 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
     Cost: at most one more `locate` per detection (and a point count per overlapping pair),
     only where circles overlap, and one pass over each circle's points."""
     kwargs = dict(kwargs, image=image, radius_range=radius_range)
-    first = [locate(cloud, d, right_p, **kwargs) for d in detections]
+    # each detection's circle points, projected once for all that follows
+    circles = [points_in_circle(cloud, d, right_p) for d in detections]
+    first = [locate(cloud, d, right_p, circle_points=c, **kwargs)
+             for d, c in zip(detections, circles)]
     dists = [None if loc is None else float(np.linalg.norm(loc.centre)) for loc in first]
     out = list(first)
     for i, (d, loc) in enumerate(zip(detections, first)):
@@ -558,18 +568,21 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
         ahead = [j for j in over if dists[j] < dists[i] - margin]
         level = [j for j in over if abs(dists[j] - dists[i]) <= margin]
         if ahead:
-            out[i] = locate(cloud, d, right_p, hidden=_circles(detections, ahead), **kwargs)
+            out[i] = locate(cloud, d, right_p, hidden=_circles(detections, ahead),
+                            circle_points=circles[i], **kwargs)
         elif level:
-            again = locate(cloud, d, right_p, hidden=_circles(detections, level), **kwargs)
+            again = locate(cloud, d, right_p, hidden=_circles(detections, level),
+                           circle_points=circles[i], **kwargs)
             if again is not None:
                 if float(np.linalg.norm(again.centre)) > max(dists[j] for j in level) + margin:
                     out[i] = again
-            elif all(_points_outside(cloud, detections[j], right_p, d) >= MIN_POINTS
+            elif all(_points_outside(detections[j], circles[j], d) >= MIN_POINTS
                      for j in level):
                 out[i] = None
     # last, each location against the points of its whole circle
-    return [None if loc is None else seen_through(cloud, d, right_p, loc, image, radius_range)
-            for d, loc in zip(detections, out)]
+    return [None if loc is None else seen_through(cloud, d, right_p, loc, image, radius_range,
+                                                  circle_points=c)
+            for d, loc, c in zip(detections, out, circles)]
 
 
 def points_in_circle(cloud, detection, right_p):
@@ -591,12 +604,22 @@ def points_in_circle(cloud, detection, right_p):
     return pts[on], u[on], v[on]
 
 
-def _circle_rays(cloud, detection, right_p):
-    """The points of the detection's circle (points_in_circle) on its centre ray:
-    (u, v, points relative to the right camera, t along the ray, lateral offset from it, the
-    ray's axis, its angular radius alpha, the right camera's centre in the cloud frame)."""
+def _on_part(detection, circle_points):
+    """points_on_fruit's (points, u, v) from the detection's points_in_circle (the same
+    points, in the same order)."""
+    pts, pu, pv = circle_points
+    on = detection.contains(pu, pv)
+    return pts[on], pu[on], pv[on]
+
+
+def _circle_rays(cloud, detection, right_p, circle_points=None):
+    """The points of the detection's circle (points_in_circle, or `circle_points`) on its
+    centre ray: (u, v, points relative to the right camera, t along the ray, lateral offset
+    from it, the ray's axis, its angular radius alpha, the right camera's centre in the cloud
+    frame)."""
     fx, fy, cx, cy, baseline = projection_params(right_p)
-    pts, pu, pv = points_in_circle(cloud, detection, right_p)
+    pts, pu, pv = points_in_circle(cloud, detection, right_p) if circle_points is None \
+        else circle_points
     offset = np.array([baseline, 0.0, 0.0])
     pr = pts - offset
     axis, alpha = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
@@ -616,12 +639,14 @@ def _ranged_centre_distances(image, detection, pu, pv, t, lateral, sin_a):
 
 
 def seen_through(cloud, detection, right_p, loc, image=None, radius_range=FRUIT_RADIUS_RANGE,
-                 min_points=MIN_POINTS, share=SEEN_THROUGH_SHARE):
+                 min_points=MIN_POINTS, share=SEEN_THROUGH_SHARE, circle_points=None):
     """The detection's location `loc` checked against the points of its whole circle (module
     docstring): `loc` when too few points off its part are seen behind it, else the depth
     cluster of the circle's core points with a fruit's radius that leaves too few and has the
-    most points on its sphere (a FruitLocation at its median centre distance), else None."""
-    pu, pv, pr, t, lateral, axis, alpha, offset = _circle_rays(cloud, detection, right_p)
+    most points on its sphere (a FruitLocation at its median centre distance), else None.
+    circle_points: the detection's points_in_circle, if known."""
+    pu, pv, pr, t, lateral, axis, alpha, offset = _circle_rays(cloud, detection, right_p,
+                                                               circle_points)
     core = np.nonzero(lateral < math.tan(EDGE_FRACTION * alpha) * t)[0]
     foreign = ~detection.contains(pu[core], pv[core])
     if np.count_nonzero(foreign) < min_points:
@@ -660,8 +685,11 @@ def seen_through(cloud, detection, right_p, loc, image=None, radius_range=FRUIT_
     if best is None:
         return None
     centre, idx, _ = best
+    own = ~foreign
+    on_part = np.count_nonzero(own & (np.abs(dist - centre) <= CLUSTER_GAP * centre * sin_a))
     return FruitLocation(centre * axis + offset, centre * sin_a, len(idx),
-                         np.median(pr[idx], axis=0) + offset)
+                         np.median(pr[idx], axis=0) + offset,
+                         on_part / float(max(np.count_nonzero(own), 1)))
 
 
 def own_skin(cloud, detection, right_p, loc, image=None, min_points=2 * MIN_POINTS,
@@ -700,7 +728,10 @@ def regrade(detector, cloud, found, right_p, image):
     others as they are (all of them without an image)."""
     out = []
     for det, loc in found:
-        if loc is not None and image is not None:
+        # a location taken from the part's own points (most of them on the fruit) cannot have
+        # a part mostly in front of it: no need to look
+        if loc is not None and image is not None and not (
+                loc.part_share is not None and loc.part_share > 1.0 - OWN_SKIN_FRONT_SHARE):
             skin = own_skin(cloud, det, right_p, loc, image)
             if skin is not None:
                 score = detector.grade_at(image, skin[0], skin[1])
@@ -710,10 +741,10 @@ def regrade(detector, cloud, found, right_p, image):
     return out
 
 
-def _points_outside(cloud, detection, right_p, other):
-    """How many of a detection's cloud points lie outside another detection's circle (a count,
-    cheaper than locating it again)."""
-    _, pu, pv = points_on_fruit(cloud, detection, right_p, pixels=True)
+def _points_outside(detection, circle_points, other):
+    """How many of a detection's cloud points (on its part, from its points_in_circle) lie
+    outside another detection's circle (a count, cheaper than locating it again)."""
+    _, pu, pv = _on_part(detection, circle_points)
     return int(np.count_nonzero(np.hypot(pu - other.u, pv - other.v) > other.radius_px))
 
 
