@@ -5,9 +5,9 @@ The simulated stereo head adds one of NOISE_FRAMES sensor-noise frames per eye t
 each camera has rendered by then. A fruit that is located well in one pair and badly in another
 is a mission that passes or fails by timing. For each scenario and picking point this renders the
 NOISE_FRAMES x NOISE_FRAMES (right, left) pairs offline, runs the detector, `locate_all` and
-`regrade` as the image_processing node does, and prints one line per ripe reachable fruit of that point that is not
-found pickable (score >= the pickable threshold) within `--tolerance` of its centre in every pair,
-and one per point where an unripe fruit is taken for a pickable one:
+`regrade` as the image_processing node does, and prints one line per ripe reachable fruit of
+that point that is not found pickable (score >= the pickable threshold) within `--tolerance` of
+its centre in every pair, and one per point where an unripe fruit is taken for a pickable one:
 
   SCENARIO point P FRUIT: K of 16 off: r2l0:12 r2l1:13 ...   (pair: error in mm, or - for none)
   SCENARIO point P unripe taken ripe: FRUIT(ripeness) r0l1 ...

@@ -78,5 +78,5 @@ def run_line(scale, res):
                 scale, res['speed'], res['sim'], res['wall'], split.get('fast', 0.0),
                 split.get('rest', 0.0), split.get('held', 0.0), res['wall_total'],
                 s['outcome'], s['picked'], truth.get('ripe_reachable', '?'),
-                truth.get('collected', '?'), truth.get('dropped', '?'),
+                truth.get('harvested', '?'), truth.get('dropped', '?'),
                 truth.get('damaged', '?'), cycle))

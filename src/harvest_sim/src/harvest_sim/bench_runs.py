@@ -176,7 +176,7 @@ def _measure_mission(launch, wall0, wall_limit, profile):
         rospy.wait_for_service('/sim/get_summary', timeout=10.0)
         t = rospy.ServiceProxy('/sim/get_summary', GetSimSummary)()
         ripe_reachable, harvested, _ = ground_truth_counts(t)
-        res['truth'] = {'ripe_reachable': ripe_reachable, 'collected': harvested,
+        res['truth'] = {'ripe_reachable': ripe_reachable, 'harvested': harvested,
                         'dropped': t.dropped, 'damaged': t.damaged}
     except (rospy.ROSException, rospy.ServiceException) as exc:
         res['truth'] = {'error': str(exc)}

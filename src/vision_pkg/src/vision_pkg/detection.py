@@ -359,28 +359,37 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         hsv = cv2.cvtColor(bgr_pixels.reshape(-1, 1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3)
         return self._score_pixels(hsv, bgr_pixels)
 
+    def skin_mask(self, hsv_pixels, bgr_pixels):
+        """Which pixels of a fruit's colour sample are skin to grade: neither deep shadow,
+        highlight nor clipped."""
+        p = self.params
+        s, v = hsv_pixels[:, 1], hsv_pixels[:, 2]
+        return (v > 2 * p['val_min']) & ~((s < 60) & (v > 200)) & \
+            (np.maximum(np.maximum(bgr_pixels[:, 0], bgr_pixels[:, 1]), bgr_pixels[:, 2]) < 250)
+
     def grade_at(self, bgr, u, v, min_pixels=24):
         """Ripeness score of the skin at full-resolution pixels (u, v) of a BGR image, graded
         as detect() grades a fruit of the ripe-colour pass: the image's white balance, then
-        the pixels that are neither dark, highlight nor clipped, and not green-graded (calyx,
-        stems). None with fewer than `min_pixels` of them."""
-        p = self.params
-        scale = self.working_scale(bgr.shape[1])
-        small = cv2.resize(bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA) \
-            if abs(scale - 1.0) > 1e-9 else bgr
-        gains = self.white_gains(small)
+        the pixels of `skin_mask` that are not green-graded (calyx, stems). None with fewer
+        than `min_pixels` of them."""
+        gains = self.white_gains(self._working_image(bgr)[0])
         h, w = bgr.shape[:2]
         ui = np.clip(np.rint(np.asarray(u, dtype=np.float64)).astype(np.int64), 0, w - 1)
         vi = np.clip(np.rint(np.asarray(v, dtype=np.float64)).astype(np.int64), 0, h - 1)
         bgr_px = np.clip(np.rint(bgr[vi, ui].astype(np.float64) * gains), 0, 255).astype(np.uint8)
         hsv_px = cv2.cvtColor(bgr_px.reshape(-1, 1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3)
-        good = (hsv_px[:, 2] > 2 * p['val_min']) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200)) & \
-            (bgr_px.max(axis=1) < 250)
         ripeness = self.pixel_ripeness(hsv_px)
-        good &= ripeness >= p['skin_min_ripeness']
+        good = self.skin_mask(hsv_px, bgr_px) & (ripeness >= self.params['skin_min_ripeness'])
         if np.count_nonzero(good) < min_pixels:
             return None
         return self._score_pixels(hsv_px[good], bgr_px[good], ripeness[good])[0]
+
+    def _working_image(self, bgr):
+        """(the image at the working scale, not yet white-balanced; that scale)."""
+        scale = self.working_scale(bgr.shape[1])
+        if abs(scale - 1.0) > 1e-9:
+            return cv2.resize(bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA), scale
+        return bgr, scale
 
     # -- main ---------------------------------------------------------------------------------
     def detect(self, bgr):
@@ -388,11 +397,7 @@ class TomatoDetector(RegionSplitter, RoundSurface):
         if bgr is None or bgr.ndim != 3 or bgr.shape[2] != 3 or bgr.dtype != np.uint8:
             raise ValueError('detect() takes a BGR uint8 image (H x W x 3)')
         p = self.params
-        scale = self.working_scale(bgr.shape[1])
-        if abs(scale - 1.0) > 1e-9:
-            small = cv2.resize(bgr, None, fx=scale, fy=scale, interpolation=cv2.INTER_AREA)
-        else:
-            small = bgr
+        small, scale = self._working_image(bgr)
         small, _ = self.balance(small)
         hsv = cv2.cvtColor(small, cv2.COLOR_BGR2HSV)
         # radii in working pixels (min/max_radius_px are pixels of the reference width)

@@ -312,8 +312,7 @@ class RegionSplitter(object):
             sy, sx = self._skin_pixels(frame, part, ox, oy, cx, cy, 0.85 * r)
             hsv_px = hsv[sy, sx]
             bgr_px = small[sy, sx]
-            good = (hsv_px[:, 2] > 2 * p['val_min']) & ~((hsv_px[:, 1] < 60) & (hsv_px[:, 2] > 200)) & \
-                (np.maximum(np.maximum(bgr_px[:, 0], bgr_px[:, 1]), bgr_px[:, 2]) < 250)
+            good = self.skin_mask(hsv_px, bgr_px)
             if not strict:
                 # a part of ripening colour: its green-graded pixels are not its skin but the
                 # calyx, sepals and stems across it (seen from the calyx side, a star of
