@@ -61,6 +61,14 @@ def test_the_motion_bound_is_the_busier_arms_minimal_move_time(bench):
     assert bounds == [pytest.approx(3.0), pytest.approx(1.0)]
 
 
+def test_the_bound_floor_is_the_least_ratio_to_the_paper_cycle(bench):
+    # 8.1 s of arm moves per fruit against a 14.6 s paper cycle: no overlap of those moves
+    # gets below 0.555 of the paper's cycle
+    assert bench.bound_floor(8.1, 14.6) == pytest.approx(8.1 / 14.6)
+    assert bench.bound_floor(None, 14.6) is None
+    assert bench.bound_floor(8.1, None) is None
+
+
 def test_executive_overhead_counts_goals_that_follow_a_result(bench):
     e = '/task_planner-'
     wire = [(1.000, 'goal', 'kinematics', e + '1'), (1.010, 'result', 'kinematics', e + '1'),

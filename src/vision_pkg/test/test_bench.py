@@ -1,5 +1,5 @@
 """bench_detection's real-photo half on a folder the test makes: the label loader's errors, the
-photometric variants, and the figures of run_photos (with --photo-variants)."""
+photometric variants, and the figures of run_photos (with --photo-variants and --photo-widths)."""
 import argparse
 
 import cv2
@@ -82,6 +82,23 @@ def test_run_photos_counts_the_labelled_fruit_and_runs_every_variant(tmp_path):
     args.min_care_radius, args.photo_variants = 10.0, False
     figures = bench.run_photos(args, log=lines.append)
     assert (figures['tp'], figures['fp'], figures['fn']) == (3, 1, 1), lines
+    # --photo-widths: at 1024 wide the figures of the photos as taken; at half that width the
+    # fruit are half as large in pixels, still above min_radius_px, and found again
+    args.min_care_radius, args.photo_widths = None, [1024, 512]
+    lines = []
+    widths = bench.run_photos(args, log=lines.append)['widths']
+    assert sorted(widths) == [512, 1024]
+    for width in (1024, 512):
+        got = widths[width]
+        assert (got['tp'], got['fp'], got['fn']) == (3, 1, 0), (width, lines)
+    assert any(line.startswith('  ripe F1 over the 2 widths') for line in lines), lines
+
+
+def test_photo_widths_are_read_as_a_list_of_pixels():
+    assert bench._widths('640, 768,1024') == [640, 768, 1024]
+    for bad in ('6x', '', '32'):
+        with pytest.raises(argparse.ArgumentTypeError):
+            bench._widths(bad)
 
 
 def test_run_photos_without_a_folder_says_so():

@@ -36,7 +36,10 @@ matches a care fruit of stage s is a true positive of s) and over all stages (an
 With --photo-variants the photos are run again under photometric variants of themselves
 (bench_photos.PHOTO_VARIANTS: white balance casts, exposure, gamma, JPEG, blur), a line of
 ripe-fruit figures each, then their mean and lowest ripe F1: seven photos are few, and a change
-that holds across the variants is less likely tuned to their pixels than to the fruit.
+that holds across the variants is less likely tuned to their pixels than to the fruit. With
+--photo-widths W,W,... the same for the photos scaled to each width (the fruit's size in pixels
+changes as with another camera's field of view or distance; "care" from the detector's
+min_radius_px at that width).
 
 This module runs the two benchmarks and holds the command line; its parts (re-exported here):
 bench_frames (knob sweep, render cache, ground truth), bench_metrics (IoU, matching,
@@ -173,11 +176,13 @@ def run_photos(args, log=print):
     ev = Evaluation(args.min_ripeness)
     missing = []
     photos = []          # (name, scaled image, ground truth)
+    originals = []       # (name, image as read, labels)
     for name in sorted(labels):
         image = cv2.imread(os.path.join(photo_dir, name))
         if image is None:
             missing.append(name)
             continue
+        originals.append((name, image, labels[name]))
         s = args.photo_width / float(image.shape[1])
         image = cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         h, w = image.shape[:2]
@@ -208,7 +213,59 @@ def run_photos(args, log=print):
     if getattr(args, 'photo_variants', False) and photos:
         figures['variants'] = run_photo_variants(detector, photos, args.min_ripeness, log,
                                                  args.verbose)
+    widths = getattr(args, 'photo_widths', None)
+    if widths and originals:
+        figures['widths'] = run_photo_widths(detector, originals, widths, args.min_ripeness,
+                                             args.min_visible, log, args.verbose)
     return figures
+
+
+def run_photo_widths(detector, originals, widths, min_ripeness, min_visible, log=print,
+                     verbose=False):
+    """Ripe-fruit figures of the photos scaled to each of `widths` (pixels wide, at most the
+    detector's reference width: a wider image is seen at that width anyway): the same scenes
+    with every fruit smaller or larger in pixels, as another camera's field of view or
+    distance would show them. A labelled fruit is "care" when its radius at that width is at
+    least the detector's min_radius_px. A line per width, then the mean and the lowest ripe
+    F1. originals: [(name, BGR image as read, its labels)]. Returns {width: figures}."""
+    log('== real photos at other widths (fruit sizes in pixels; ripe fruit; stage accuracy '
+        'of the fruit found):')
+    out = {}
+    for width in widths:
+        ev = Evaluation(min_ripeness)
+        for name, image, labels in originals:
+            s = width / float(image.shape[1])
+            scaled = cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
+            h, w = scaled.shape[:2]
+            gts = _photo_truth(labels, s, w, h, detector, min_visible)
+            dets = detector.detect(scaled)
+            ev.add(name, dets, _det_boxes(dets, w, h), gts, 0.0)
+        fig = ev.figures()
+        out[width] = fig
+        log('  %5d px wide     ripe F1 %.3f (P %.3f R %.3f; TP %d FP %d FN %d), stage accuracy '
+            '%.3f' % (width, fig['f1'], fig['precision'], fig['recall'], fig['tp'], fig['fp'],
+                      fig['fn'], fig['stage_accuracy']))
+        if verbose:
+            for line in ev.fp_log:
+                log('    FP %s' % line)
+            for line in ev.fn_log:
+                log('    FN %s' % line)
+    f1 = [fig['f1'] for fig in out.values()]
+    worst = min(out, key=lambda k: out[k]['f1'])
+    log('  ripe F1 over the %d widths: mean %.3f, lowest %.3f (%d px wide)' % (
+        len(f1), float(np.mean(f1)), out[worst]['f1'], worst))
+    return out
+
+
+def _widths(text):
+    """--photo-widths: comma-separated positive integers."""
+    try:
+        widths = [int(w) for w in text.split(',') if w.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError('comma-separated widths in pixels, not %r' % text)
+    if not widths or any(w < 64 for w in widths):
+        raise argparse.ArgumentTypeError('widths of at least 64 px, not %r' % text)
+    return widths
 
 
 def run_photo_variants(detector, photos, min_ripeness, log=print, verbose=False):
@@ -268,6 +325,9 @@ def main(argv):
     parser.add_argument('--photo-variants', action='store_true',
                         help='also run the photos under photometric variants (white balance '
                              'casts, exposure, gamma, JPEG, blur) and print their ripe F1')
+    parser.add_argument('--photo-widths', type=_widths, default=None, metavar='W,W,...',
+                        help='also run the photos scaled to these widths (fruit smaller or '
+                             'larger in pixels, e.g. 640,768,896,1024) and print their ripe F1')
     parser.add_argument('--min-care-radius', type=float, default=None, metavar='PX',
                         help='photos: a labelled fruit of a smaller radius (px at --photo-width)'
                              ' is "don\'t care" (default: the detector\'s min_radius_px)')
