@@ -230,31 +230,15 @@ def run_photo_widths(detector, originals, widths, min_ripeness, min_visible, log
     F1. originals: [(name, BGR image as read, its labels)]. Returns {width: figures}."""
     log('== real photos at other widths (fruit sizes in pixels; ripe fruit; stage accuracy '
         'of the fruit found):')
-    out = {}
-    for width in widths:
-        ev = Evaluation(min_ripeness)
+
+    def scaled_photos(width):
         for name, image, labels in originals:
             s = width / float(image.shape[1])
             scaled = cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
             h, w = scaled.shape[:2]
-            gts = _photo_truth(labels, s, w, h, detector, min_visible)
-            dets = detector.detect(scaled)
-            ev.add(name, dets, _det_boxes(dets, w, h), gts, 0.0)
-        fig = ev.figures()
-        out[width] = fig
-        log('  %5d px wide     ripe F1 %.3f (P %.3f R %.3f; TP %d FP %d FN %d), stage accuracy '
-            '%.3f' % (width, fig['f1'], fig['precision'], fig['recall'], fig['tp'], fig['fp'],
-                      fig['fn'], fig['stage_accuracy']))
-        if verbose:
-            for line in ev.fp_log:
-                log('    FP %s' % line)
-            for line in ev.fn_log:
-                log('    FN %s' % line)
-    f1 = [fig['f1'] for fig in out.values()]
-    worst = min(out, key=lambda k: out[k]['f1'])
-    log('  ripe F1 over the %d widths: mean %.3f, lowest %.3f (%d px wide)' % (
-        len(f1), float(np.mean(f1)), out[worst]['f1'], worst))
-    return out
+            yield name, scaled, _photo_truth(labels, s, w, h, detector, min_visible)
+    return _sweep(detector, [('%5d px wide' % width, width, width) for width in widths],
+                  scaled_photos, min_ripeness, 'widths', log, verbose)
 
 
 def _widths(text):
@@ -274,17 +258,30 @@ def run_photo_variants(detector, photos, min_ripeness, log=print, verbose=False)
     ripe F1. photos: [(name, scaled BGR image, ground truth)]. Returns {name: figures}."""
     log('== real photos under photometric variants (ripe fruit; stage accuracy of the fruit '
         'found):')
-    out = {}
-    for name, (kind, value) in PHOTO_VARIANTS:
-        ev = Evaluation(min_ripeness)
+
+    def varied_photos(variant):
+        kind, value = variant
         for photo, image, gts in photos:
-            varied = photo_variant(image, kind, value)
-            dets = detector.detect(varied)
-            ev.add(photo, dets, _det_boxes(dets, varied.shape[1], varied.shape[0]), gts, 0.0)
+            yield photo, photo_variant(image, kind, value), gts
+    return _sweep(detector, [(name, name, variant) for name, variant in PHOTO_VARIANTS],
+                  varied_photos, min_ripeness, 'variants', log, verbose)
+
+
+def _sweep(detector, settings, photos, min_ripeness, what, log, verbose):
+    """The photos under each setting: settings [(label, key, arg)], photos(arg) yields (name,
+    image, ground truth) of each photo under it; one detection per photo (no timing); a line of
+    ripe-fruit figures per setting, then the mean and the lowest ripe F1 over them. Returns
+    {key: figures}."""
+    out, labels = {}, {}
+    for label, key, arg in settings:
+        ev = Evaluation(min_ripeness)
+        for name, image, gts in photos(arg):
+            dets = detector.detect(image)
+            ev.add(name, dets, _det_boxes(dets, image.shape[1], image.shape[0]), gts, 0.0)
         fig = ev.figures()
-        out[name] = fig
+        out[key], labels[key] = fig, label
         log('  %-16s ripe F1 %.3f (P %.3f R %.3f; TP %d FP %d FN %d), stage accuracy %.3f' % (
-            name, fig['f1'], fig['precision'], fig['recall'], fig['tp'], fig['fp'], fig['fn'],
+            label, fig['f1'], fig['precision'], fig['recall'], fig['tp'], fig['fp'], fig['fn'],
             fig['stage_accuracy']))
         if verbose:
             for line in ev.fp_log:
@@ -293,8 +290,8 @@ def run_photo_variants(detector, photos, min_ripeness, log=print, verbose=False)
                 log('    FN %s' % line)
     f1 = [fig['f1'] for fig in out.values()]
     worst = min(out, key=lambda k: out[k]['f1'])
-    log('  ripe F1 over the %d variants: mean %.3f, lowest %.3f (%s)' % (
-        len(f1), float(np.mean(f1)), out[worst]['f1'], worst))
+    log('  ripe F1 over the %d %s: mean %.3f, lowest %.3f (%s)' % (
+        len(f1), what, float(np.mean(f1)), out[worst]['f1'], labels[worst].strip()))
     return out
 
 
