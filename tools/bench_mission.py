@@ -16,8 +16,8 @@ each schedule's motion-time lower bound (per picked fruit, of the arm moves actu
 cycle, the minimal trapezoidal times at robot.yaml's limits summed per arm, the larger arm's)
 and its cycle's ratio to it, the pipelined bound over the paper's mean cycle (the least ratio
 any schedule sending the same arm moves can reach), and the mean time per picked fruit spent in
-each state label (the
-states of an overlap run at the same time, so they add up to more than the cycle).
+each state label (the states of an overlap run at the same time, so they add up to more than
+the cycle).
 """
 import argparse
 import json
@@ -253,10 +253,10 @@ def print_comparison(runs, out=sys.stdout):
             picked = [r for (_, sch), rs in runs.items() if sch == schedule for r in rs]
             bounds = [b for run in picked for b in motion_bound(run, limits, home)]
             cyc = mean([t for run in picked for t in picked_cycles(run)])
-            bound_means[schedule] = mean(bounds)
+            bound = bound_means[schedule] = mean(bounds)
             out.write('%-9s motion-time lower bound %s s/fruit (sim), cycle / bound %s\n' % (
-                schedule, _fmt(mean(bounds), '%.2f'),
-                _fmt(cyc / mean(bounds) if bounds and cyc and mean(bounds) else None, '%.2f')))
+                schedule, _fmt(bound, '%.2f'),
+                _fmt(cyc / bound if cyc and bound else None, '%.2f')))
         floor = bound_floor(bound_means.get('pipelined'), o['paper'])
         if floor is not None:
             out.write('pipelined motion-time lower bound / paper cycle %.2f: the least ratio a '
