@@ -20,13 +20,7 @@ import time
 from rospy.rostime import wallsleep  # wall time on purpose: the harness measures sim vs wall time
 
 from harvest_sim.instance import free_port, sim_launch_args
-
-
-def free_display(start):
-    for n in range(start, start + 100):
-        if not os.path.exists('/tmp/.X%d-lock' % n) and not os.path.exists('/tmp/.X11-unix/X%d' % n):
-            return n
-    raise RuntimeError('no free X display')
+from harvest_test_utils.xvfb import start_xvfb
 
 
 class Harness(object):
@@ -49,14 +43,11 @@ class Harness(object):
         return proc
 
     def xvfb(self, size):
-        n = free_display(120 + len(self.procs))
-        self.start('xvfb%d' % n, ['Xvfb', ':%d' % n, '-screen', '0', '%sx24' % size, '-nolisten', 'tcp'])
-        deadline = time.time() + 20
-        while not os.path.exists('/tmp/.X11-unix/X%d' % n):
-            if time.time() > deadline:
-                raise RuntimeError('Xvfb :%d did not start' % n)
-            wallsleep(0.2)     # harness outside ROS, polling a socket file
-        return n
+        """A display number, the display accepting clients (Xvfb picks a free one)."""
+        log = open(os.path.join(self.logdir, 'xvfb%d.log' % len(self.procs)), 'w')
+        proc, display = start_xvfb('%sx24' % size, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        self.procs.append(('xvfb' + display[1:], proc))
+        return int(display[1:])
 
     def grab(self, display, title, path):
         """Grab the top-level window whose name contains `title` (else the whole screen)."""
