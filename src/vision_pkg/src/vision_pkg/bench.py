@@ -176,13 +176,15 @@ def run_photos(args, log=print):
     ev = Evaluation(args.min_ripeness)
     missing = []
     photos = []          # (name, scaled image, ground truth)
-    originals = []       # (name, image as read, labels)
+    widths = getattr(args, 'photo_widths', None)
+    originals = []       # (name, image as read, labels): kept only for --photo-widths
     for name in sorted(labels):
         image = cv2.imread(os.path.join(photo_dir, name))
         if image is None:
             missing.append(name)
             continue
-        originals.append((name, image, labels[name]))
+        if widths:
+            originals.append((name, image, labels[name]))
         s = args.photo_width / float(image.shape[1])
         image = cv2.resize(image, None, fx=s, fy=s, interpolation=cv2.INTER_AREA)
         h, w = image.shape[:2]
@@ -213,8 +215,7 @@ def run_photos(args, log=print):
     if getattr(args, 'photo_variants', False) and photos:
         figures['variants'] = run_photo_variants(detector, photos, args.min_ripeness, log,
                                                  args.verbose)
-    widths = getattr(args, 'photo_widths', None)
-    if widths and originals:
+    if originals:
         figures['widths'] = run_photo_widths(detector, originals, widths, args.min_ripeness,
                                              args.min_visible, log, args.verbose)
     return figures
