@@ -123,3 +123,48 @@ def test_skin_mean_colour_is_numpys_mean():
         hsv = cv2.cvtColor(bgr.reshape(-1, 1, 3), cv2.COLOR_BGR2HSV).reshape(-1, 3)
         mean = det._score_pixels(hsv, bgr, mean_bgr=True)[2]
         assert np.array_equal(mean, bgr.sum(axis=0, dtype=np.float64) / n)
+
+
+def _kasa_plain(xs, ys):
+    """Kasa's circle from its 2 x 2 normal equations in coordinates centred on the points'
+    mean, sum by sum (the form circle_fit had before it took the sums as one matrix product)."""
+    u, v = xs - xs.mean(), ys - ys.mean()
+    uu, vv, uv = u.dot(u), v.dot(v), u.dot(v)
+    w = u * u + v * v
+    bu, bv = 0.5 * u.dot(w), 0.5 * v.dot(w)
+    det = uu * vv - uv * uv
+    uc, vc = (bu * vv - bv * uv) / det, (bv * uu - bu * uv) / det
+    return uc + xs.mean(), vc + ys.mean(), math.sqrt(uc * uc + vc * vc + (uu + vv) / len(xs))
+
+
+@pytest.mark.parametrize('seed', range(6))
+def test_the_moment_matrix_kasa_fit_is_the_centred_one(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(20):
+        # an arc of an outline in image pixels, far from the origin, with pixel noise
+        cx, cy, r = rng.uniform(50, 1500), rng.uniform(50, 1000), rng.uniform(8, 150)
+        a = rng.uniform(0, 2 * math.pi) + np.linspace(0, rng.uniform(0.8, 2 * math.pi),
+                                                      int(rng.integers(8, 600)))
+        xs = np.rint(cx + r * np.cos(a)) + rng.integers(-1, 2, len(a))
+        ys = np.rint(cy + r * np.sin(a)) + rng.integers(-1, 2, len(a))
+        if len(set(zip(xs, ys))) < 5:
+            continue
+        assert np.allclose(circle_fit.fit_circle(xs, ys), _kasa_plain(xs, ys),
+                           rtol=0.0, atol=1e-7)
+    # and the degenerate cases stay None
+    assert circle_fit.fit_circle(np.arange(10.0), 2.0 * np.arange(10.0)) is None
+    assert circle_fit.fit_circle(np.arange(4.0), np.arange(4.0) ** 2) is None
+
+
+def test_the_fits_are_the_same_wherever_the_outline_lies_in_the_image():
+    """The fits work relative to the points' rounded mean: shifting an outline by whole pixels
+    shifts the circles they find and changes nothing else."""
+    a = np.linspace(math.pi, 2 * math.pi, 80)
+    xs = np.rint(np.concatenate([40 + 25 * np.cos(a), np.linspace(15, 65, 50)]))
+    ys = np.rint(np.concatenate([30 + 25 * np.sin(a), np.full(50, 30.0)]))
+    for fit in (lambda x, y: circle_fit.robust_fit_circle(x, y),
+                lambda x, y: circle_fit.arc_fit_circle(x, y, 10.0, 60.0)):
+        base = fit(xs, ys)
+        for dx, dy in ((700, 0), (0, 480), (1234, 567)):
+            moved = fit(xs + dx, ys + dy)
+            assert moved == pytest.approx((base[0] + dx, base[1] + dy, base[2]), abs=1e-9)

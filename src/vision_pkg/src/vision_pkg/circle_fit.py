@@ -7,50 +7,96 @@ import math
 import cv2
 import numpy as np
 
-def fit_circle(xs, ys):
-    """Algebraic least-squares circle (Kasa), solved in centred coordinates from its 2 x 2
-    normal equations. Returns (cx, cy, r) or None (fewer than 5 points, or collinear)."""
+def _points(xs, ys):
+    """(q, x0, y0): the points as the rows x, y, x^2 + y^2, 1 of a 4 x n array, relative to
+    (x0, y0), their mean rounded (integer pixel coordinates stay exact). A subset's moment
+    sums, all of them, are then one matrix product (_kasa), and a circle's squared distances
+    to every point one more."""
     n = len(xs)
-    if n < 5:
-        return None
     xs = np.asarray(xs, dtype=np.float64)
     ys = np.asarray(ys, dtype=np.float64)
-    mx, my = float(xs.sum()) / n, float(ys.sum()) / n
-    u, v = xs - mx, ys - my
-    uu, vv, uv = float(u.dot(u)), float(v.dot(v)), float(u.dot(v))
+    x0 = float(round(float(xs.sum()) / n)) if n else 0.0
+    y0 = float(round(float(ys.sum()) / n)) if n else 0.0
+    q = np.empty((4, n))
+    np.subtract(xs, x0, out=q[0])
+    np.subtract(ys, y0, out=q[1])
+    np.multiply(q[0], q[0], out=q[2])
+    q[2] += q[1] * q[1]
+    q[3] = 1.0
+    return q, x0, y0
+
+
+def _kasa(m):
+    """Algebraic least-squares circle (Kasa) from the 4 x 4 moment matrix q q^T of points as
+    _points gives them, in their coordinates: its 2 x 2 normal equations in coordinates
+    centred on the points' mean. (cx, cy, r), or None (fewer than 5 points, or collinear)."""
+    (sxx, sxy, sxz, sx), (_, syy, syz, sy), (_, _, _, sz), (_, _, _, n) = m.tolist()
+    if n < 5:
+        return None
+    mx, my = sx / n, sy / n
+    uu, vv, uv = sxx - sx * mx, syy - sy * my, sxy - sx * my
     det = uu * vv - uv * uv
     if det <= 1e-9 * max(uu * vv, 1e-12):
         return None
-    w = u * u + v * v
-    bu, bv = 0.5 * float(u.dot(w)), 0.5 * float(v.dot(w))
-    uc = (bu * vv - bv * uv) / det
-    vc = (bv * uu - bu * uv) / det
-    r2 = uc * uc + vc * vc + (uu + vv) / n
+    # u . (u^2 + v^2) in the centred coordinates is uz - 2 (mx uu + my uv); the centre
+    # relative to the mean solves [uu uv; uv vv] c = (u . w, v . w) / 2, so the centre itself
+    # solves it with (uz, vz) / 2
+    uz, vz = sxz - mx * sz, syz - my * sz
+    cx = 0.5 * (uz * vv - vz * uv) / det
+    cy = 0.5 * (vz * uu - uz * uv) / det
+    r2 = (cx - mx) ** 2 + (cy - my) ** 2 + (uu + vv) / n
     if r2 <= 0:
         return None
-    return uc + mx, vc + my, math.sqrt(r2)
+    return cx, cy, math.sqrt(r2)
+
+
+def _robust_kasa(q, iterations=2, keep=0.8):
+    """robust_fit_circle on points as _points gives them (their coordinates)."""
+    circle = _kasa(q.dot(q.T))
+    for _ in range(iterations):
+        if circle is None:
+            return None
+        res = np.abs(np.hypot(q[0] - circle[0], q[1] - circle[1]) - circle[2])
+        n = max(int(q.shape[1] * keep), 5)
+        if n >= q.shape[1]:
+            break
+        q = q.take(np.argpartition(res, n - 1)[:n], axis=1)
+        circle = _kasa(q.dot(q.T))
+    return circle
+
+
+def _support(circle, q, tol=1.0, rel=0.03):
+    """count_support on points as _points gives them (the circle in their coordinates)."""
+    cx, cy, r = circle
+    return int(np.count_nonzero(np.abs(np.hypot(q[0] - cx, q[1] - cy) - r) <= tol + rel * r))
+
+
+def fit_circle(xs, ys):
+    """Algebraic least-squares circle (Kasa), solved in centred coordinates from its 2 x 2
+    normal equations. Returns (cx, cy, r) or None (fewer than 5 points, or collinear)."""
+    if len(xs) < 5:
+        return None
+    q, x0, y0 = _points(xs, ys)
+    return _shifted(_kasa(q.dot(q.T)), x0, y0)
 
 
 def robust_fit_circle(xs, ys, iterations=2, keep=0.8):
     """Kasa fit, then refits on the best `keep` fraction of points by radial residual."""
-    circle = fit_circle(xs, ys)
-    for _ in range(iterations):
-        if circle is None:
-            return None
-        res = np.abs(np.hypot(xs - circle[0], ys - circle[1]) - circle[2])
-        n = max(int(len(xs) * keep), 5)
-        if n >= len(xs):
-            break
-        idx = np.argpartition(res, n - 1)[:n]
-        xs, ys = xs[idx], ys[idx]
-        circle = fit_circle(xs, ys)
-    return circle
+    if len(xs) < 5:
+        return None
+    q, x0, y0 = _points(xs, ys)
+    return _shifted(_robust_kasa(q, iterations, keep), x0, y0)
 
 
 def count_support(circle, xs, ys, tol=1.0, rel=0.03):
     """Number of points within tol + rel * r of the circle."""
     cx, cy, r = circle
     return int(np.count_nonzero(np.abs(np.hypot(xs - cx, ys - cy) - r) <= tol + rel * r))
+
+
+def _shifted(circle, x0, y0):
+    """A circle (cx, cy, r) moved by (x0, y0); None stays None."""
+    return None if circle is None else (circle[0] + x0, circle[1] + y0, circle[2])
 
 
 _TRIPLES = {}
@@ -86,16 +132,24 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     least-squares fit over both shrinks the circle, the arc's own circle does not. Triples are
     drawn from a fixed seed, so the result is repeatable.
     """
-    n = len(xs)
+    if len(xs) < 8:
+        return None
+    q, x0, y0 = _points(xs, ys)
+    return _shifted(_arc_kasa(q, r_min, r_max, trials, seed), x0, y0)
+
+
+def _arc_kasa(q, r_min, r_max, trials=60, seed=0):
+    """arc_fit_circle on points as _points gives them (their coordinates)."""
+    n = q.shape[1]
     if n < 8:
         return None
     idx = _triple_index(seed, trials, n)
-    px, py = xs[idx], ys[idx]                   # trials x 3
+    px, py = q[0].take(idx), q[1].take(idx)     # trials x 3
     (x1, x2, x3), (y1, y2, y3) = px.T, py.T
     d = 2.0 * (x1 * (y2 - y3) + x2 * (y3 - y1) + x3 * (y1 - y2))
     ok = np.abs(d) > 1e-6
     d = np.where(ok, d, 1.0)
-    s1, s2, s3 = (px * px + py * py).T
+    s1, s2, s3 = q[2].take(idx).T
     cx = (s1 * (y2 - y3) + s2 * (y3 - y1) + s3 * (y1 - y2)) / d
     cy = (s1 * (x3 - x2) + s2 * (x1 - x3) + s3 * (x2 - x1)) / d
     r = np.hypot(x1 - cx, y1 - cy)
@@ -104,25 +158,21 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
         return None
     cx, cy, r = cx[cand], cy[cand], r[cand]
     # support: points within 1 px + 3 % of r of each circle, from the squared distances of
-    # every point to every centre as one matrix product
+    # every point to every centre as one matrix product (rows -2 cx, -2 cy, 1, cx^2 + cy^2)
     tol = 1.0 + 0.03 * r
-    pts = np.empty((n, 3))
-    pts[:, 0] = xs
-    pts[:, 1] = ys
-    pts[:, 2] = xs * xs + ys * ys
-    centres = np.empty((3, len(cx)))
-    np.multiply(cx, -2.0, out=centres[0])
-    np.multiply(cy, -2.0, out=centres[1])
-    centres[2] = 1.0
-    d2 = pts.dot(centres)
-    d2 += cx * cx + cy * cy
-    within = (d2 >= np.maximum(r - tol, 0.0) ** 2) & (d2 <= (r + tol) ** 2)
-    support = within.sum(axis=0)
+    centres = np.empty((len(cx), 4))
+    np.multiply(cx, -2.0, out=centres[:, 0])
+    np.multiply(cy, -2.0, out=centres[:, 1])
+    centres[:, 2] = 1.0
+    centres[:, 3] = cx * cx + cy * cy
+    d2 = centres.dot(q)                         # candidates x points
+    within = (d2 >= (np.maximum(r - tol, 0.0) ** 2)[:, None]) & (d2 <= ((r + tol) ** 2)[:, None])
+    support = within.sum(axis=1)
     best = int(np.argmax(support))
     if support[best] < 8:
         return None
-    inliers = within[:, best]
-    refit = fit_circle(xs[inliers], ys[inliers])
+    inliers = q[:, within[best]]
+    refit = _kasa(inliers.dot(inliers.T))
     if refit is None or not r_min <= refit[2] <= r_max:
         return float(cx[best]), float(cy[best]), float(r[best])
     return refit
@@ -218,17 +268,17 @@ def _fit_crop(part8, outer, peak_r, r_high):
     on_hull = hull_distance(hull, xs, ys) <= 1.5
     if on_hull.sum() >= 8:
         xs, ys = xs[on_hull], ys[on_hull]
-    xs = xs.astype(np.float64)
-    ys = ys.astype(np.float64)
+    # the points relative to their rounded mean (_points), shared by every fit below
+    q, x0, y0 = _points(xs, ys)
     r_lo, r_hi = 0.8 * peak_r, r_high * peak_r + 2.0
-    circle = robust_fit_circle(xs, ys)
+    circle = _robust_kasa(q)
     if circle is not None and not r_lo <= circle[2] <= r_hi:
         circle = None
-    support = count_support(circle, xs, ys) if circle is not None else 0
+    support = _support(circle, q) if circle is not None else 0
     arc = None
-    if support < 0.9 * len(xs):
-        arc = arc_fit_circle(xs, ys, r_lo, r_hi)
-    if arc is not None and count_support(arc, xs, ys) > support:
+    if support < 0.9 * q.shape[1]:
+        arc = _arc_kasa(q, r_lo, r_hi)
+    if arc is not None and _support(arc, q) > support:
         # the outline is partly a straight or concave cut (a leaf or stem in front of the
         # fruit): the circle that most of the outline follows is the fruit
         circle = arc
@@ -238,9 +288,10 @@ def _fit_crop(part8, outer, peak_r, r_high):
     # the radius must be consistent with the inscribed radius, the centre near the part
     if r < r_lo or r > r_hi:
         return fallback
-    if math.hypot(cx - mx, cy - my) > r:
+    if math.hypot(cx + x0 - mx, cy + y0 - my) > r:
         return fallback
-    residual = _median(np.abs(np.hypot(xs - cx, ys - cy) - r)) / r
+    residual = _median(np.abs(np.hypot(q[0] - cx, q[1] - cy) - r)) / r
+    cx, cy = cx + x0, cy + y0
     return cx, cy, r, residual
 
 
