@@ -7,6 +7,7 @@ import math
 import cv2
 import numpy as np
 
+
 def _points(xs, ys):
     """(q, x0, y0): the points as the rows x, y, x^2 + y^2, 1 of a 4 x n array, relative to
     (x0, y0), their mean rounded (integer pixel coordinates stay exact). A subset's moment
@@ -38,9 +39,9 @@ def _kasa(m):
     det = uu * vv - uv * uv
     if det <= 1e-9 * max(uu * vv, 1e-12):
         return None
-    # u . (u^2 + v^2) in the centred coordinates is uz - 2 (mx uu + my uv); the centre
-    # relative to the mean solves [uu uv; uv vv] c = (u . w, v . w) / 2, so the centre itself
-    # solves it with (uz, vz) / 2
+    # uz, vz: the sums of u z and v z (u, v centred on the mean, z = x^2 + y^2). Kasa's centre
+    # solves [uu uv; uv vv] (cx, cy) = (uz, vz) / 2 (its normal equations in the centred
+    # coordinates, written for the centre itself rather than its offset from the mean)
     uz, vz = sxz - mx * sz, syz - my * sz
     cx = 0.5 * (uz * vv - vz * uv) / det
     cy = 0.5 * (vz * uu - uz * uv) / det
@@ -66,7 +67,8 @@ def _robust_kasa(q, iterations=2, keep=0.8):
 
 
 def _support(circle, q, tol=1.0, rel=0.03):
-    """count_support on points as _points gives them (the circle in their coordinates)."""
+    """Number of points (as _points gives them) within tol + rel * r of the circle (in their
+    coordinates)."""
     cx, cy, r = circle
     return int(np.count_nonzero(np.abs(np.hypot(q[0] - cx, q[1] - cy) - r) <= tol + rel * r))
 
@@ -86,12 +88,6 @@ def robust_fit_circle(xs, ys, iterations=2, keep=0.8):
         return None
     q, x0, y0 = _points(xs, ys)
     return _shifted(_robust_kasa(q, iterations, keep), x0, y0)
-
-
-def count_support(circle, xs, ys, tol=1.0, rel=0.03):
-    """Number of points within tol + rel * r of the circle."""
-    cx, cy, r = circle
-    return int(np.count_nonzero(np.abs(np.hypot(xs - cx, ys - cy) - r) <= tol + rel * r))
 
 
 def _shifted(circle, x0, y0):
