@@ -15,7 +15,9 @@ run and prints, per scenario and overall, the mean s/fruit (sim) of each and the
 each schedule's motion-time lower bound (per picked fruit, of the arm moves actually sent in its
 cycle, the minimal trapezoidal times at robot.yaml's limits summed per arm, the larger arm's)
 and its cycle's ratio to it, the pipelined bound over the paper's mean cycle (the least ratio
-any schedule sending the same arm moves can reach), and the mean time per picked fruit spent in
+any schedule sending the same arm moves can reach), each schedule's mean cycle of the first
+fruit picked at a picking point (the arms come from home) and of the others, with their ratios,
+and the mean time per picked fruit spent in
 each state label (the states of an overlap run at the same time, so they add up to more than
 the cycle).
 """
@@ -74,6 +76,24 @@ def in_box(run):
 
 def damaged(run):
     return sorted(k for k, v in run['fruit_states'].items() if v in (DROPPED, DAMAGED))
+
+
+def cycles_by_position(run, gap=1e-3):
+    """(first, later): cycle times [s, sim] of the picked fruit that were the first picked at
+    their picking point and of the others. An attempt (any outcome) whose cycle starts more than
+    `gap` after the previous attempt ended begins a new point: the base moved and the arms came
+    from home in between; at the same point each cycle starts where the previous one ended."""
+    first, later = [], []
+    previous_end, new_point = None, True
+    for r in sorted((r for r in run['records'] if 'end' in r), key=lambda r: r['end']):
+        start = r['end'] - r['cycle_time']
+        if previous_end is None or start > previous_end + gap:
+            new_point = True
+        previous_end = r['end']
+        if r['outcome'] == PICKED:
+            (first if new_point else later).append(r['cycle_time'])
+            new_point = False
+    return first, later
 
 
 def state_means(runs):
@@ -261,6 +281,23 @@ def print_comparison(runs, out=sys.stdout):
         if floor is not None:
             out.write('pipelined motion-time lower bound / paper cycle %.2f: the least ratio a '
                       'schedule sending the same arm moves can reach\n' % floor)
+    by_position = {}
+    for schedule in SCHEDULES:
+        split = [cycles_by_position(r) for (_, sch), rs in runs.items() if sch == schedule
+                 for r in rs]
+        by_position[schedule] = [[t for f in split for t in f[k]] for k in (0, 1)]
+    out.write("cycle by the fruit's place at its picking point [s/fruit, sim]: the first picked "
+              'there (arms from home) / the others\n')
+    for schedule in SCHEDULES:
+        out.write('  %-10s %s (%d) / %s (%d)\n' % (
+            schedule, _fmt(mean(by_position[schedule][0])), len(by_position[schedule][0]),
+            _fmt(mean(by_position[schedule][1])), len(by_position[schedule][1])))
+    ratios = []
+    for k in (0, 1):
+        a, b = mean(by_position['paper'][k]), mean(by_position['pipelined'][k])
+        ratios.append(b / a if a and b is not None else None)
+    out.write('  %-10s %s / %s\n' % ('ratio', _fmt(ratios[0], '%.2f'), _fmt(ratios[1], '%.2f')))
+    result['by_position'] = {'cycles': by_position, 'ratio': ratios}
     states = dict((s, state_means([r for (_, sch), rs in runs.items() if sch == s for r in rs]))
                   for s in SCHEDULES)
     labels = sorted(set(states['paper']) | set(states['pipelined']))

@@ -88,3 +88,41 @@ def test_executive_overhead_counts_goals_that_follow_a_result(bench):
     bench.print_overhead([{'wire': wire}], out)
     assert 'all' in out.getvalue() and 'median' in out.getvalue()
     assert bench.percentile([1.0, 2.0, 3.0, 4.0], 50) == pytest.approx(2.5)
+
+
+def _attempt(outcome, start, end):
+    return {'outcome': outcome, 'cycle_time': end - start, 'end': end, 'states': [],
+            'durations': []}
+
+
+def test_cycles_are_split_by_the_fruits_place_at_its_picking_point(bench):
+    records = [_attempt('picked', 5.0, 16.0),           # point 1: first (arms from home)
+               _attempt('picked', 16.0, 23.0),          # ... the next starts where it ended
+               _attempt('unreachable', 23.0, 23.5),     # a skipped target: still point 1
+               _attempt('picked', 23.5, 30.0),
+               _attempt('unreachable', 34.0, 34.2),     # point 2: a gap (the base moved) ...
+               _attempt('picked', 34.2, 44.0),          # ... its first picked fruit
+               _attempt('picked', 50.0, 61.0)]          # point 3
+    got = bench.cycles_by_position({'records': records[::-1]})    # any order
+    assert got == ([11.0, pytest.approx(9.8), 11.0], [7.0, 6.5])
+
+
+def test_the_comparison_prints_the_first_and_the_later_fruits_ratios(bench):
+    def point_run(cycles_per_point):
+        records, t = [], 0.0
+        for cycles in cycles_per_point:
+            t += 3.0                                    # the base moves between points
+            for c in cycles:
+                records.append(_attempt('picked', t, t + c))
+                t += c
+        return {'records': records, 'fruit_states': {'f': 3}, 'moves': []}
+    runs = {('a', 'paper'): [point_run([[14.0, 14.0], [16.0]])],
+            ('a', 'pipelined'): [point_run([[10.0, 7.0], [11.0]])]}
+    out = io.StringIO()
+    got = bench.print_comparison(runs, out)
+    assert got['by_position']['cycles'] == {'paper': [[14.0, 16.0], [14.0]],
+                                            'pipelined': [[10.0, 11.0], [7.0]]}
+    first, later = got['by_position']['ratio']
+    assert first == pytest.approx(0.7) and later == pytest.approx(0.5)
+    assert '  pipelined  10.5 (2) / 7.0 (1)' in out.getvalue()
+    assert '  ratio      0.70 / 0.50' in out.getvalue()
