@@ -78,18 +78,25 @@ def damaged(run):
     return sorted(k for k, v in run['fruit_states'].items() if v in (DROPPED, DAMAGED))
 
 
-def cycles_by_position(run, gap=1e-3):
+def cycles_by_position(run, gap=0.5):
     """(first, later): cycle times [s, sim] of the picked fruit that were the first picked at
-    their picking point and of the others. An attempt (any outcome) whose cycle starts more than
-    `gap` after the previous attempt ended begins a new point: the base moved and the arms came
-    from home in between; at the same point each cycle starts where the previous one ended."""
+    their picking point and of the others. A visit to a point begins with the first attempt (any
+    outcome) whose `picking_point` differs from the previous attempt's; in records without one,
+    with an attempt whose cycle starts more than `gap` s after the previous attempt ended (at a
+    point each cycle starts as the one before ends; between points the base moves and the stereo
+    head looks, 3 s and more). The first fruit picked in a visit (unless an attempt that moved the
+    arms failed before it) comes with its arms from home."""
     first, later = [], []
-    previous_end, new_point = None, True
+    previous, new_point = None, True
     for r in sorted((r for r in run['records'] if 'end' in r), key=lambda r: r['end']):
-        start = r['end'] - r['cycle_time']
-        if previous_end is None or start > previous_end + gap:
+        if previous is None:
             new_point = True
-        previous_end = r['end']
+        elif 'picking_point' in r and 'picking_point' in previous:
+            new_point = new_point or r['picking_point'] != previous['picking_point']
+        else:
+            new_point = new_point or \
+                r['end'] - r['cycle_time'] > previous['end'] + gap
+        previous = r
         if r['outcome'] == PICKED:
             (first if new_point else later).append(r['cycle_time'])
             new_point = False

@@ -110,7 +110,8 @@ def run_mission(scenario, time_scale, timeout, log_path, launch_args=()):
     def on_record(msg):
         names = {msg.OUTCOME_PICKED: 'picked', msg.OUTCOME_UNREACHABLE: 'unreachable',
                  msg.OUTCOME_LOST: 'lost', msg.OUTCOME_FAILED: 'failed'}
-        records.append({'target_id': msg.target_id, 'outcome': names.get(msg.outcome, 'failed'),
+        records.append({'picking_point': msg.picking_point, 'target_id': msg.target_id,
+                        'outcome': names.get(msg.outcome, 'failed'),
                         'end': msg.stamp.to_sec(),
                         'cycle_time': msg.cycle_time, 'states': list(msg.state_names),
                         'durations': list(msg.state_durations)})

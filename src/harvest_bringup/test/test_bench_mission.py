@@ -126,3 +126,17 @@ def test_the_comparison_prints_the_first_and_the_later_fruits_ratios(bench):
     assert first == pytest.approx(0.7) and later == pytest.approx(0.5)
     assert '  pipelined  10.5 (2) / 7.0 (1)' in out.getvalue()
     assert '  ratio      0.70 / 0.50' in out.getvalue()
+
+
+def test_records_with_their_picking_point_are_split_by_it(bench):
+    def at(point, outcome, start, end):
+        r = _attempt(outcome, start, end)
+        r['picking_point'] = point
+        return r
+    # a cycle may start a little after the previous one ended (20 ms here): the point decides
+    records = [at(3, 'picked', 5.0, 16.0), at(3, 'picked', 16.02, 23.0),
+               at(3, 'picked', 23.02, 30.0), at(4, 'unreachable', 30.5, 30.6),
+               at(4, 'picked', 30.6, 41.0), at(5, 'picked', 41.2, 50.0)]
+    assert bench.cycles_by_position({'records': records}) == \
+        ([11.0, pytest.approx(10.4), pytest.approx(8.8)],
+         [pytest.approx(6.98), pytest.approx(6.98)])
