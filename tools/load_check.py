@@ -14,7 +14,9 @@ A scenario that fails beside the hogs is run once more after them, on the quiet 
 (`--no-quiet-rerun` skips that), and its line says whether the failure came with the load or
 is the same without it (then it is the robot's own limit in that scenario, e.g. perception,
 not the load). The exit status counts only the runs beside the hogs. `--hogs 0` runs without
-hogs (stress-ng itself reads `--cpu 0` as one worker per core).
+hogs (stress-ng itself reads `--cpu 0` as one worker per core). `--schedule pipelined` and
+`--servo-mode continuous` pass on to run_demo.py: the same checks for the task planner's other
+schedule and the visual servo's other mode.
 """
 import argparse
 import glob
@@ -80,6 +82,11 @@ def main():
     parser.add_argument('--logs', default='load_check_logs', help='directory of the launch logs')
     parser.add_argument('--depth-probe', type=float, default=None, metavar='M',
                         help="run_demo's --depth-probe (default: the visual servo's own, off)")
+    parser.add_argument('--schedule', choices=('paper', 'pipelined'), default=None,
+                        help="run_demo's --schedule (default: control_pkg executive.yaml's, the "
+                        "paper's)")
+    parser.add_argument('--servo-mode', choices=('step', 'continuous'), default=None,
+                        help="run_demo's --servo-mode (default: the visual servo's own, step)")
     parser.add_argument('--no-quiet-rerun', dest='quiet_rerun', action='store_false',
                         help='do not run a failed scenario again without the hogs')
     args = parser.parse_args()
@@ -92,11 +99,11 @@ def main():
         hogs = subprocess.Popen(['stress-ng', '--cpu', str(args.hogs), '--quiet'],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
                                 start_new_session=True)
-        print('load-check: %d scenarios, each beside `stress-ng --cpu %d` (pid %d) on %d cores'
-              % (len(names), args.hogs, hogs.pid, os.cpu_count() or 0))
+        print('load-check: %d scenarios, each beside `stress-ng --cpu %d` (pid %d) on %d cores%s'
+              % (len(names), args.hogs, hogs.pid, os.cpu_count() or 0, _options(args)))
     else:
-        print('load-check: %d scenarios, no CPU hogs, on %d cores'
-              % (len(names), os.cpu_count() or 0))
+        print('load-check: %d scenarios, no CPU hogs, on %d cores%s'
+              % (len(names), os.cpu_count() or 0, _options(args)))
     sys.stdout.flush()
     failed = []
     start = time.time()
@@ -128,6 +135,13 @@ def main():
     return 0 if not failed else 1
 
 
+def _options(args):
+    """'; schedule X, visual servo Y' for the options that change the mission ('' for none)."""
+    said = ['%s %s' % (what, value) for what, value in (
+        ('schedule', args.schedule), ('visual servo', args.servo_mode)) if value]
+    return '; ' + ', '.join(said) if said else ''
+
+
 def run_one(args, name, log_name):
     """(passed, line, wall seconds) of one run_demo.py mission of scenario `name`."""
     cmd = [sys.executable, os.path.join(HERE, 'run_demo.py'), '--scenario', name,
@@ -136,6 +150,10 @@ def run_one(args, name, log_name):
         cmd += ['--time-scale', str(args.time_scale)]
     if args.depth_probe is not None:
         cmd += ['--depth-probe', str(args.depth_probe)]
+    if args.schedule:
+        cmd += ['--schedule', args.schedule]
+    if args.servo_mode:
+        cmd += ['--servo-mode', args.servo_mode]
     t0 = time.time()
     out = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
                          universal_newlines=True, cwd=args.logs)

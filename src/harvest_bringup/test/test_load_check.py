@@ -88,3 +88,35 @@ def test_no_hogs_starts_no_stress_ng_and_runs_nothing_twice(load_check, monkeypa
         load_check, monkeypatch, capsys,
         ['--scenario', 'b', '--no-quiet-rerun', '--logs', str(tmp_path)], {('b', False): DAMAGED})
     assert status == 1 and runs == [('b', False)]
+
+
+
+def test_the_schedule_and_the_servo_mode_reach_run_demo(load_check, monkeypatch, capsys,
+                                                        tmp_path):
+    commands = []
+
+    class _Done(object):
+        stdout = PASSED
+
+    monkeypatch.setattr(load_check.subprocess, 'run',
+                        lambda cmd, **kw: commands.append(cmd) or _Done())
+
+    class Args(object):
+        timeout, time_scale, depth_probe, logs = 60.0, None, None, str(tmp_path)
+        schedule, servo_mode = 'pipelined', 'continuous'
+
+    ok, line, _ = load_check.run_one(Args, 'three_targets', 'x.log')
+    assert ok and line.startswith('PASS')
+    cmd = commands[0]
+    assert cmd[cmd.index('--schedule') + 1] == 'pipelined'
+    assert cmd[cmd.index('--servo-mode') + 1] == 'continuous'
+    Args.schedule = Args.servo_mode = None
+    load_check.run_one(Args, 'three_targets', 'x.log')
+    assert '--schedule' not in commands[1] and '--servo-mode' not in commands[1]
+    # and the first line says which schedule and mode the verdicts are for
+    status, out, runs, _ = _run(
+        load_check, monkeypatch, capsys,
+        ['--hogs', '0', '--scenario', 'a', '--schedule', 'pipelined', '--servo-mode',
+         'continuous', '--logs', str(tmp_path)], {('a', False): PASSED})
+    assert status == 0 and runs == [('a', False)]
+    assert out[0].endswith('; schedule pipelined, visual servo continuous')
