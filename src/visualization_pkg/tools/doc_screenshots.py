@@ -37,15 +37,16 @@ class Harness(object):
         env = dict(self.env)
         if display is not None:
             env['DISPLAY'] = ':%d' % display
-        log = open(os.path.join(self.logdir, name + '.log'), 'w')
-        proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
+        with open(os.path.join(self.logdir, name + '.log'), 'w') as log:     # the child keeps its copy
+            proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env, start_new_session=True)
         self.procs.append((name, proc))
         return proc
 
     def xvfb(self, size):
         """A display number, the display accepting clients (Xvfb picks a free one)."""
-        log = open(os.path.join(self.logdir, 'xvfb%d.log' % len(self.procs)), 'w')
-        proc, display = start_xvfb('%sx24' % size, stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
+        with open(os.path.join(self.logdir, 'xvfb%d.log' % len(self.procs)), 'w') as log:
+            proc, display = start_xvfb('%sx24' % size, stdout=log, stderr=subprocess.STDOUT,
+                                       start_new_session=True)
         self.procs.append(('xvfb' + display[1:], proc))
         return int(display[1:])
 

@@ -76,16 +76,12 @@ def _support(circle, q, tol=1.0, rel=0.03):
 def fit_circle(xs, ys):
     """Algebraic least-squares circle (Kasa), solved in centred coordinates from its 2 x 2
     normal equations. Returns (cx, cy, r) or None (fewer than 5 points, or collinear)."""
-    if len(xs) < 5:
-        return None
     q, x0, y0 = _points(xs, ys)
     return _shifted(_kasa(q.dot(q.T)), x0, y0)
 
 
 def robust_fit_circle(xs, ys, iterations=2, keep=0.8):
     """Kasa fit, then refits on the best `keep` fraction of points by radial residual."""
-    if len(xs) < 5:
-        return None
     q, x0, y0 = _points(xs, ys)
     return _shifted(_robust_kasa(q, iterations, keep), x0, y0)
 
@@ -128,8 +124,6 @@ def arc_fit_circle(xs, ys, r_min, r_max, trials=60, seed=0):
     least-squares fit over both shrinks the circle, the arc's own circle does not. Triples are
     drawn from a fixed seed, so the result is repeatable.
     """
-    if len(xs) < 8:
-        return None
     q, x0, y0 = _points(xs, ys)
     return _shifted(_arc_kasa(q, r_min, r_max, trials, seed), x0, y0)
 
