@@ -76,21 +76,55 @@ def test_no_points_no_location(stereo_scene):
     assert localisation.locate(empty, pairs[0][1], P_RIGHT) is None
 
 
-def test_sphere_ray_recovers_off_axis_centre():
-    f, cx, cy = 800.0, 512.0, 384.0
-    centre = np.array([0.25, -0.15, 0.5])
-    radius = 0.04
-    # silhouette edges along the radial direction
+def _silhouette(centre, radius, f, cx, cy, samples=720):
+    """Image points of a sphere's silhouette (the cone of rays tangent to it), evenly spaced
+    along the outline as an outline's pixels are."""
     d = centre / np.linalg.norm(centre)
     alpha = math.asin(radius / np.linalg.norm(centre))
-    rho_dir = centre[:2] / np.linalg.norm(centre[:2])
-    theta = math.atan2(np.linalg.norm(centre[:2]), centre[2])
-    e1, e2 = math.tan(theta + alpha), math.tan(theta - alpha)
-    mid = 0.5 * (e1 + e2) * f
-    u, v = cx + rho_dir[0] * mid, cy + rho_dir[1] * mid
-    axis, a = localisation.sphere_ray(u, v, 0.5 * (e1 - e2) * f, f, f, cx, cy)
-    assert np.allclose(axis, d, atol=1e-9)
-    assert a == pytest.approx(alpha, abs=1e-9)
+    e1 = np.cross(d, [1.0, 0.0, 0.0] if abs(d[2]) > 0.9 else [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    phi = np.linspace(0.0, 2.0 * math.pi, 20000, endpoint=False)
+    rays = math.cos(alpha) * d + math.sin(alpha) * (np.cos(phi)[:, None] * e1 +
+                                                    np.sin(phi)[:, None] * e2)
+    u, v = cx + f * rays[:, 0] / rays[:, 2], cy + f * rays[:, 1] / rays[:, 2]
+    step = np.hypot(np.diff(np.r_[u, u[0]]), np.diff(np.r_[v, v[0]]))
+    along = np.cumsum(step)
+    idx = np.searchsorted(along, np.linspace(0.0, along[-1], samples, endpoint=False))
+    return u[idx], v[idx], d, alpha
+
+
+def test_sphere_image_axes_are_the_silhouettes_extents():
+    f, cx, cy = 800.0, 512.0, 384.0
+    centre = np.array([0.25, -0.15, 0.5])
+    u, v, d, alpha = _silhouette(centre, 0.04, f, cx, cy)
+    theta = math.acos(d[2])
+    mid, a, b = localisation.sphere_image_axes(theta, alpha)
+    radial = centre[:2] / np.linalg.norm(centre[:2])
+    along = (u - cx) * radial[0] + (v - cy) * radial[1]
+    across = -(u - cx) * radial[1] + (v - cy) * radial[0]
+    assert 0.5 * (along.max() + along.min()) == pytest.approx(mid * f, abs=0.02)
+    assert 0.5 * (along.max() - along.min()) == pytest.approx(a * f, abs=0.02)
+    assert 0.5 * (across.max() - across.min()) == pytest.approx(b * f, abs=0.02)
+    assert b < 0.95 * a          # 31 degrees off the axis: a tenth longer than wide
+
+
+@pytest.mark.parametrize('centre', [(0.25, -0.15, 0.5), (-0.3, 0.2, 0.55), (0.02, 0.01, 0.6),
+                                    (0.0, 0.0, 0.45)])
+def test_sphere_ray_recovers_the_centre_from_the_silhouettes_fitted_circle(centre):
+    """The detector's circle is the least-squares circle of the silhouette's outline; from it
+    sphere_ray finds the centre ray and the angular radius, on and off the axis."""
+    from vision_pkg.circle_fit import fit_circle
+    f, cx, cy = 800.0, 512.0, 384.0
+    centre = np.array(centre)
+    u, v, d, alpha = _silhouette(centre, 0.035, f, cx, cy)
+    cu, cv, r = fit_circle(u, v)
+    axis, a = localisation.sphere_ray(cu, cv, r, f, f, cx, cy)
+    assert math.degrees(math.acos(min(axis.dot(d), 1.0))) < 0.005
+    assert a == pytest.approx(alpha, rel=2e-4)
+    # the sphere's centre distance from the angular radius: within 0.1 mm at 0.6 m
+    dist = np.linalg.norm(centre)
+    assert 0.035 / math.sin(a) == pytest.approx(dist, abs=1e-4)
 
 
 @pytest.mark.parametrize('point_step', [16, 32])
