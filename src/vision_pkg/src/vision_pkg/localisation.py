@@ -6,9 +6,10 @@ Detections live in the RIGHT rectified image, so every cloud point is mapped int
 image through the right camera's projection matrix P (Tx = -fx * baseline) and kept when it
 falls on the fruit's visible part.
 
-The fruit is a sphere of unknown radius R whose silhouette in the right image is the fitted
-circle. That circle fixes the viewing ray to the sphere centre and the angular radius alpha
-(sin alpha = R / D, D the centre distance). Each surface point p on the fruit gives its own
+The fruit is a sphere of unknown radius R whose silhouette in the right image is an ellipse
+(a circle on the optical axis), and the detector's circle is that outline's least-squares
+circle. The circle fixes the viewing ray to the sphere centre and the angular radius alpha
+(sin alpha = R / D, D the centre distance; `sphere_ray`). Each surface point p on the fruit gives its own
 centre-distance estimate: its depth t along the centre ray pushed back by the sphere's
 thickness at its lateral offset rho, D_i = t + sqrt(R^2 - rho^2) (for the central point,
 exactly "the surface point pushed back by the radius along the viewing ray"). The median of
