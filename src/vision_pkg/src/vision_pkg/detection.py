@@ -18,8 +18,8 @@ Made to hold on real photographs as well as on harvest_sim's renders. For one BG
   3. shape evidence: connected regions, the distance transform's peaks split touching fruit
      (power diagram), a robust circle fit on outline pixels on the convex hull (leaf notches
      ignored; a RANSAC arc fit when a leaf edge cuts the outline), one-circle vs split vs
-     joined-parts hypotheses compared by outline misfit; validated by fill ratio and by the
-     fraction of the part inside the circle;
+     joined-parts vs fruit-in-front hypotheses compared by outline misfit; validated by fill
+     ratio and by the fraction of the part inside the circle;
   4. green fruit share their colour with leaves, so a region with green-fruit colour (pass 2,
      at ~green_scale of the working size) is a fruit only when its shape and surface say so:
      a part no larger than ~max_area_ratio times its inscribed circle (leaf strips are
@@ -124,6 +124,10 @@ DEFAULTS = {
                                 # fruit in front of another, one peak; a wide fruit's flat arc)
     'max_residual_refit': 0.03,  # ... when that circle follows its arc this well (median / r)
     'min_front_outline': 0.5,   # ... and when that much of its circle is the region's outline
+    'front_ratio': 1.1,         # a ripe part's circle over this x its inscribed radius may span
+                                # a fruit of its colour behind the one in front (0: off) ...
+    'front_radius': 1.08,       # ... whose own arc's circle is at most this x that radius and
+                                # follows its arc at least as well (then split as in refit_*)
     'max_shared_part': 0.5,     # a strict-pass fruit with more of its visible part inside the
                                 # circle of a fruit of pass 1 is the rest of that fruit
     'max_regions': 30,          # regions examined per pass (largest first)

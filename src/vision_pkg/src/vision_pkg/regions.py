@@ -243,6 +243,10 @@ class RegionSplitter(object):
                 if whole[3] <= split and _share(
                         (xs - cx) ** 2 + (ys - cy) ** 2 <= (r + 1.5) ** 2) >= p['min_inside']:
                     candidates = [(whole_part, whole, (ys, xs))]
+        if not strict and p['front_ratio'] > 0:
+            # (one peak: its part is the whole region, whose distance map is `dist`)
+            candidates = [self._front_fruit(c, outer, dist if len(peaks) == 1 else None)
+                          for c in candidates]
         results = []
         in_front = {}        # candidate index -> the part of the fruit in front of it
         for index, (part, circle, coords) in enumerate(candidates):
@@ -345,6 +349,61 @@ class RegionSplitter(object):
                 hue_angle=float('nan') if mean_bgr is None else lab_hue_angle(mean_bgr),
                 behind=index in in_front))
         return results
+
+    def _front_fruit(self, candidate, outer, inscribed=None, samples=48, min_inner=6):
+        """Hypothesis D: a ripe part is a fruit in front of another of its colour. Both are in
+        one part (one distance-transform peak, the front fruit's), whose outline is the front
+        fruit's arc and the arc of the one behind; the circle fitted to it spans both, wider
+        than the part's inscribed circle (more than `front_ratio` x its radius), where the
+        front fruit's own circle is about as wide as that inscribed circle. When the outline
+        holds such an arc (its circle at most `front_radius` x the inscribed radius, following
+        the arc at least as well as the wide circle follows the outline, `max_residual_refit`
+        at most, `min_front_outline` of it along the outline, filled as a green fruit's must be)
+        and the small circle runs through the part's inside for at least `min_inner` of
+        `samples` points (the front fruit's rim across the one behind), the candidate takes
+        that circle: the result loop then keeps what it holds as the front fruit and examines
+        the rest as the fruit behind (as the refit of a thin part does). Else the candidate
+        comes back as it was. candidate: (part, circle, pixels) as _split_component has them;
+        inscribed: the part's distance map (cv2.DIST_L2, mask 5) when known."""
+        p = self.params
+        part, circle, coords = candidate
+        area = len(coords[0]) if coords is not None else int(np.count_nonzero(part))
+        if area < p['refit_fill'] * math.pi * circle[2] ** 2:
+            return candidate      # too thin for its circle: the result loop refits it
+        ox = oy = 0
+        if inscribed is None:
+            # on the part's bounding box (+1 px of background): a part of a large region is a
+            # small share of its crop
+            bx, by, bw, bh = cv2.boundingRect(part.view(np.uint8))
+            if bw == 0 or bh == 0:
+                return candidate
+            ox, oy = max(bx - 1, 0), max(by - 1, 0)
+            inscribed = cv2.distanceTransform(
+                part[oy:by + bh + 1, ox:bx + bw + 1].view(np.uint8), cv2.DIST_L2, 5)
+        pr = float(inscribed.max())
+        residual = circle[3] if len(circle) > 3 else 1.0
+        if pr <= 0 or circle[2] <= p['front_ratio'] * pr or area > 2.0 * math.pi * pr * pr:
+            return candidate      # (larger than the front fruit and one of its size behind)
+        # fit_part's radii reach r_high x pr + 2 px: the front fruit's at most front_radius x pr
+        front = self._fit_part(part, outer, pr,
+                               r_high=max(p['front_radius'] - 2.0 / pr, 0.85))
+        if front is None or len(front) < 4 or front[2] >= circle[2] or \
+                front[3] > min(residual, p['max_residual_refit']):
+            return candidate
+        cx, cy, r = front[:3]
+        a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
+        xs = np.rint(cx + r * np.cos(a)).astype(np.int64) - ox
+        ys = np.rint(cy + r * np.sin(a)).astype(np.int64) - oy
+        on = (xs >= 0) & (ys >= 0) & (xs < inscribed.shape[1]) & (ys < inscribed.shape[0])
+        # inside the part, 3 px or more from its edge
+        if np.count_nonzero(inscribed[ys[on], xs[on]] > 3.0) < min_inner:
+            return candidate
+        pys, pxs = coords if coords is not None else np.nonzero(part)
+        held = np.count_nonzero((pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2)
+        if held < p['min_fill_green'] * math.pi * r * r or \
+                outline_cover(outer, cx, cy, r) < p['min_front_outline']:
+            return candidate
+        return part, front, coords
 
     def _join_parts(self, candidates, peak_rs, outer):
         """Hypothesis C: two neighbouring parts are one fruit (a leaf or calyx notch in its
