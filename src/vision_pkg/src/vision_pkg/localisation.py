@@ -9,10 +9,10 @@ falls on the fruit's visible part.
 The fruit is a sphere of unknown radius R whose silhouette in the right image is an ellipse
 (a circle on the optical axis), and the detector's circle is that outline's least-squares
 circle. The circle fixes the viewing ray to the sphere centre and the angular radius alpha
-(sin alpha = R / D, D the centre distance; `sphere_ray`). Each surface point p on the fruit gives its own
-centre-distance estimate: its depth t along the centre ray pushed back by the sphere's
-thickness at its lateral offset rho, D_i = t + sqrt(R^2 - rho^2) (for the central point,
-exactly "the surface point pushed back by the radius along the viewing ray"). The median of
+(sin alpha = R / D, D the centre distance; `sphere_ray`). Each surface point p on the fruit
+gives its own centre-distance estimate: its depth t along the centre ray pushed back by the
+sphere's thickness at its lateral offset rho, D_i = t + sqrt(R^2 - rho^2) (for the central
+point, exactly "the surface point pushed back by the radius along the viewing ray"). The median of
 the D_i over valid points (holes and outliers do not matter), iterated twice with R = D sin
 alpha, gives the centre; only points with rho < EDGE_FRACTION * R are used, because block
 matching smears the disparity of the fruit rim onto the background and back.
