@@ -603,6 +603,34 @@ def test_a_red_fruit_in_front_of_a_red_one_keeps_its_own_circle(offset, angle, s
     assert old and all(d.radius_px > 1.1 * r for d in old), (old, r)
 
 
+@pytest.mark.parametrize('angle', [4.7, 5.0])
+def test_a_red_fruit_over_one_behind_it_is_split_by_its_own_arc(angle, monkeypatch):
+    """A red fruit hangs in front of and above another (one region, one peak). Its circle
+    follows its own arc, but the outline of the fruit behind is part of the region's outline
+    too, so the fit's misfit over the whole outline is above `max_residual_refit`: the part
+    was not split and the fruit was dropped (inside share too low), and with it the one behind.
+    The misfit of the outline that does not lie outside the circle says the circle follows its
+    arc (`own_arc_misfit`)."""
+    from vision_pkg import regions
+    front = scene.Fruit(0.0, 0.0, 0.46, 0.033, 0.95)
+    behind = scene.Fruit(0.03 * math.cos(angle), 0.03 * math.sin(angle), 0.51, 0.036, 0.9)
+    image, _, _ = scene.render([front, behind], backdrop_depth=0.95, seed=2)
+
+    def found(dets, fruit, rel):
+        x0, y0, x1, y1 = scene.gt_box(fruit)
+        u, v, r = (x0 + x1) / 2.0, (y0 + y1) / 2.0, (x1 - x0) / 2.0
+        return [d for d in dets if abs(d.radius_px / r - 1.0) < rel and
+                math.hypot(d.u - u, d.v - v) < rel * r]
+    dets = TomatoDetector().detect(image)
+    assert len(dets) == 2, dets
+    assert len(found(dets, front, 0.05)) == 1, dets
+    assert len(found(dets, behind, 0.15)) == 1, dets
+    assert all(d.stage == detection.STAGE_RED for d in dets), dets
+    # judged by the misfit over the whole outline alone, neither fruit is found
+    monkeypatch.setattr(regions, 'own_arc_misfit', lambda *args: 1.0)
+    assert not found(TomatoDetector().detect(image), front, 0.05)
+
+
 def test_grade_at_grades_skin_pixels_as_detect_grades_a_fruit():
     # a red patch and an orange one in front of white film (the white reference)
     image = np.full((200, 300, 3), 60, np.uint8)

@@ -268,14 +268,18 @@ class RegionSplitter(object):
                 if refit is not None and refit[3] <= p['max_residual_refit']:
                     cx, cy, r, residual = refit
             inside = (pxs - cx) ** 2 + (pys - cy) ** 2 <= (r + 1.5) ** 2
-            if not strict and _share(inside) < p['min_inside'] and \
-                    residual <= p['max_residual_refit'] and r_min <= r <= r_max and \
+            if not strict and _share(inside) < p['min_inside'] and r_min <= r <= r_max and \
                     np.count_nonzero(inside) >= p['min_fill_green'] * math.pi * r * r and \
                     len(candidates) < 2 * int(p['max_peaks']) and \
+                    (residual <= p['max_residual_refit'] or own_arc_misfit(
+                        part, outer, cx, cy, r) <= p['max_residual_refit']) and \
                     outline_cover(outer, cx, cy, r) >= p['min_front_outline']:
                 # the circle follows its arc and is well filled, but much of the part lies
                 # outside: that is a fruit behind it. The front fruit is what its circle holds;
-                # the rest, if large enough, is examined as a part of its own.
+                # the rest, if large enough, is examined as a part of its own. (Its arc: the
+                # fit's misfit is over the whole outline, the fruit behind's arc too, so a
+                # circle whose own arc is that close, with the outline outside it left out,
+                # counts as following it.)
                 rest = part.copy()
                 rest[pys[inside], pxs[inside]] = False
                 rest = cv2.morphologyEx(rest.astype(np.uint8), cv2.MORPH_OPEN,
@@ -467,6 +471,20 @@ class RegionSplitter(object):
 
     #: circle of a part's outline (vision_pkg.circle_fit.fit_part)
     _fit_part = staticmethod(fit_part)
+
+
+def own_arc_misfit(part, outer, cx, cy, r):
+    """Median radial misfit / r of a part's outline pixels (those of `outer` on it; crop
+    pixels) that do not lie outside the circle: outline beyond 1 px + 3 % of r from it is
+    another fruit's, the one behind. 1.0 when fewer than 8 such pixels."""
+    ys, xs = np.nonzero(outer & part)
+    if len(xs) < 8:
+        return 1.0
+    d = np.hypot(xs - cx, ys - cy) - r
+    own = np.abs(d[d <= 1.0 + 0.03 * r])
+    if len(own) < 8:
+        return 1.0
+    return float(np.median(own)) / r
 
 
 def share_inside(det, other):
