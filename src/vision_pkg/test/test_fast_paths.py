@@ -168,3 +168,25 @@ def test_the_fits_are_the_same_wherever_the_outline_lies_in_the_image():
         for dx, dy in ((700, 0), (0, 480), (1234, 567)):
             moved = fit(xs + dx, ys + dy)
             assert moved == pytest.approx((base[0] + dx, base[1] + dy, base[2]), abs=1e-9)
+
+
+def test_hull_distance_leaves_out_the_inside_of_a_long_straight_cut():
+    """A disc with its top cut off by a straight edge: outline points along that hull edge
+    (longer than max_chord x the hull's equivalent radius) are left out, but for 1.5 px at
+    either end; without max_chord the distances are the plain ones."""
+    import cv2
+    from vision_pkg.circle_fit import hull_distance
+    part = np.zeros((120, 120), np.uint8)
+    cv2.circle(part, (60, 60), 40, 1, -1)
+    part[:35] = 0                                   # the cut: row 35, about 62 px long
+    contours = cv2.findContours(part, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)[-2]
+    hull = cv2.convexHull(np.vstack(contours))
+    xs = np.array([40.0, 60.0, 80.0, 60.0, 100.0, 30.0])
+    ys = np.array([35.0, 35.0, 35.0, 100.0, 60.0, 35.0])
+    plain = hull_distance(hull, xs, ys)
+    assert np.all(plain < 1.0)                      # all of them on the hull
+    cut = hull_distance(hull, xs, ys, max_chord=0.9)
+    assert np.all(np.isinf(cut[:3]))                # along the cut
+    assert np.allclose(cut[3:5], plain[3:5])        # on the arc
+    assert np.isfinite(cut[5])                      # 1.2 px from an end of the cut
+    assert np.array_equal(hull_distance(hull, xs, ys, max_chord=0.0), plain)

@@ -185,11 +185,16 @@ def outline_cover(outer, cx, cy, r, samples=48):
     return float(np.sum(near[ys[ok], xs[ok]] > 0)) / samples
 
 
-def hull_distance(hull, xs, ys):
+def hull_distance(hull, xs, ys, max_chord=0.0):
     """Distance of points to a convex polygon's boundary (points assumed inside or on it).
 
     Inside a convex polygon the nearest boundary point lies on the edge whose line is nearest,
-    so the distance is the smallest distance to the edges' lines (no segment clipping)."""
+    so the distance is the smallest distance to the edges' lines (no segment clipping).
+    With `max_chord` > 0, points whose nearest edge is longer than max_chord x the polygon's
+    equivalent radius (sqrt(area / pi)) get an infinite distance, but for the 1.5 px at either
+    end of that edge: along a region's hull such an edge is a straight cut (a leaf's edge
+    across a fruit, or the chord between two fruit), which a fruit's curved outline never
+    makes, and its ends are where the fruit's own arc meets it."""
     pts = hull.reshape(-1, 2).astype(np.float64)
     # edge vectors to the next vertex, the last one closing the polygon
     ab = np.empty_like(pts)
@@ -212,13 +217,27 @@ def hull_distance(hull, xs, ys):
     points[1] = ys
     points[2] = 1.0
     d = lines.dot(points)
-    return np.abs(d, out=d).min(axis=0)
+    np.abs(d, out=d)
+    if max_chord <= 0:
+        return d.min(axis=0)
+    near = d.argmin(axis=0)
+    out = d[near, np.arange(len(near))]
+    area = abs(cv2.contourArea(pts.astype(np.float32).reshape(-1, 1, 2)))
+    cut = length[near] > max_chord * math.sqrt(area / math.pi)
+    if cut.any():
+        # the position along the nearest edge, from its first vertex
+        along = ((xs - pts[near, 0]) * ab[near, 0] + (ys - pts[near, 1]) * ab[near, 1]) / \
+            length[near]
+        out[cut & (along > 1.5) & (along < length[near] - 1.5)] = np.inf
+    return out
 
 
-def fit_part(part, outer, peak_r, r_high=3.0):
+def fit_part(part, outer, peak_r, r_high=3.0, max_chord=0.0):
     """(cx, cy, r, residual) of the circle through the part's outer-boundary pixels that
     lie on its convex hull, radius in [0.8, r_high] x the inscribed radius `peak_r` (+2);
-    residual = median radial misfit / r (1.0 for the fallback)."""
+    residual = median radial misfit / r (1.0 for the fallback). With `max_chord` > 0 the
+    pixels along the hull's straight cuts are left out (hull_distance), and there is no circle
+    (None) when the hull has none."""
     part8 = (part if part.dtype == bool else part != 0).astype(np.uint8)     # 0 and 1 only
     # the work is done on the part's bounding box (+1 px): a part of a large cluster is
     # a small share of its region's crop
@@ -227,13 +246,13 @@ def fit_part(part, outer, peak_r, r_high=3.0):
         return None
     x0, y0 = max(bx - 1, 0), max(by - 1, 0)
     x1, y1 = min(bx + bw + 1, part8.shape[1]), min(by + bh + 1, part8.shape[0])
-    circle = _fit_crop(part8[y0:y1, x0:x1], outer[y0:y1, x0:x1], peak_r, r_high)
+    circle = _fit_crop(part8[y0:y1, x0:x1], outer[y0:y1, x0:x1], peak_r, r_high, max_chord)
     if circle is None:
         return None
     return (circle[0] + x0, circle[1] + y0) + tuple(circle[2:])
 
 
-def _fit_crop(part8, outer, peak_r, r_high):
+def _fit_crop(part8, outer, peak_r, r_high, max_chord=0.0):
     """fit_part() on a crop: part as 0/1 uint8."""
     ys, xs = np.nonzero(outer & part8.view(bool))      # part8 holds 0 and 1 only
     # area and centroid (cv2.moments' m00, m10, m01: exact integers either way) from the
@@ -255,7 +274,10 @@ def _fit_crop(part8, outer, peak_r, r_high):
     hull = cv2.convexHull(np.vstack(contours))
     if hull is None or len(hull) < 3:
         return fallback
-    on_hull = hull_distance(hull, xs, ys) <= 1.5
+    dist = hull_distance(hull, xs, ys, max_chord)
+    if max_chord > 0 and np.isfinite(dist).all():
+        return None       # no straight cut to leave out
+    on_hull = dist <= 1.5
     if on_hull.sum() >= 8:
         xs, ys = xs[on_hull], ys[on_hull]
     # the points relative to their rounded mean (_points), shared by every fit below

@@ -128,6 +128,10 @@ DEFAULTS = {
                                 # a fruit of its colour behind the one in front (0: off) ...
     'front_radius': 1.08,       # ... whose own arc's circle is at most this x that radius and
                                 # follows its arc at least as well (then split as in refit_*)
+    'chord_refit': 0.9,         # a ripe fruit's circle is fitted again without its outline's
+                                # straight cuts: hull edges longer than this x the hull's
+                                # equivalent radius (0: off) ...
+    'chord_grow': 1.25,         # ... and taken when at most this x as large (and no smaller)
     'max_shared_part': 0.5,     # a strict-pass fruit with more of its visible part inside the
                                 # circle of a fruit of pass 1 is the rest of that fruit
     'max_regions': 30,          # regions examined per pass (largest first)

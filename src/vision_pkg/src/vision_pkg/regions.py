@@ -341,6 +341,16 @@ class RegionSplitter(object):
             if strict and score < p['outline_gate_score'] and not self._round_fruit_surface(
                     frame, cx + ox, cy + oy, r, hsv_px, circle, fill, inside, score):
                 continue          # green, but not round or no edge all round: a leaf
+            if not strict and p['chord_refit'] > 0:
+                # a leaf's straight edge across the fruit lies on its outline's hull and pulls
+                # the circle in: fitted again without it, the circle is taken when it is no
+                # smaller, at most `chord_grow` x as large, moved by at most 0.3 r, and
+                # follows its points at least as well
+                fit = self._fit_part(part, outer, r, max_chord=p['chord_refit'])
+                if fit is not None and fit[3] < 1.0 and fit[3] <= residual and \
+                        r <= fit[2] <= p['chord_grow'] * r and \
+                        math.hypot(fit[0] - cx, fit[1] - cy) <= 0.3 * r:
+                    cx, cy, r = fit[:3]
             x0 = max(int(math.floor(cx - r)) - 1, 0)
             y0 = max(int(math.floor(cy - r)) - 1, 0)
             crop = part[y0:int(math.ceil(cy + r)) + 2, x0:int(math.ceil(cx + r)) + 2]
