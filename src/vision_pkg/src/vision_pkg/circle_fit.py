@@ -168,21 +168,40 @@ def _arc_kasa(q, r_min, r_max, trials=60, seed=0):
     return refit
 
 
+def circle_pixels(cx, cy, r, shape, samples=48):
+    """(xs, ys, inside) of `samples` points evenly round a circle, rounded to pixels of an
+    image of `shape` (rows, cols); inside: which of them lie in it."""
+    a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
+    xs = np.rint(cx + r * np.cos(a)).astype(np.int64)
+    ys = np.rint(cy + r * np.sin(a)).astype(np.int64)
+    return xs, ys, (xs >= 0) & (ys >= 0) & (xs < shape[1]) & (ys < shape[0])
+
+
 def outline_cover(outer, cx, cy, r, samples=48):
     """Fraction of a circle (crop pixels) that runs along outline pixels of a region (within
     1 px + 3 % of r): a fruit in front of another shows most of its outline, a circle inscribed
     in a strip of fruit colour touches it on two sides only."""
-    height, width = outer.shape
-    a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
-    xs = np.rint(cx + r * np.cos(a)).astype(np.int64)
-    ys = np.rint(cy + r * np.sin(a)).astype(np.int64)
-    ok = (xs >= 0) & (ys >= 0) & (xs < width) & (ys < height)
+    xs, ys, ok = circle_pixels(cx, cy, r, outer.shape, samples)
     if not ok.any():
         return 0.0
     tol = int(math.ceil(1.0 + 0.03 * r))
     near = cv2.dilate(outer.astype(np.uint8), cv2.getStructuringElement(
         cv2.MORPH_ELLIPSE, (2 * tol + 1, 2 * tol + 1)))
     return float(np.sum(near[ys[ok], xs[ok]] > 0)) / samples
+
+
+def own_arc_misfit(part, outer, cx, cy, r):
+    """Median radial misfit / r of a part's outline pixels (those of `outer` on it; crop
+    pixels) that do not lie outside the circle: outline beyond 1 px + 3 % of r from it is
+    another fruit's, the one behind. 1.0 when fewer than 8 such pixels."""
+    ys, xs = np.nonzero(outer & part)
+    if len(xs) < 8:
+        return 1.0
+    d = np.hypot(xs - cx, ys - cy) - r
+    own = np.abs(d[d <= 1.0 + 0.03 * r])
+    if len(own) < 8:
+        return 1.0
+    return _median(own) / r
 
 
 def hull_distance(hull, xs, ys, max_chord=0.0):

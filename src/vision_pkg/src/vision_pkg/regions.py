@@ -12,7 +12,7 @@ import math
 import cv2
 import numpy as np
 
-from vision_pkg.circle_fit import fit_part, hull_distance, outline_cover
+from vision_pkg.circle_fit import circle_pixels, fit_part, outline_cover, own_arc_misfit
 from vision_pkg.fruit import STAGE_THRESHOLDS, Detection, lab_hue_angle
 from vision_pkg.surface import RoundSurface
 
@@ -401,14 +401,11 @@ class RegionSplitter(object):
         # fit_part's radii reach r_high x pr + 2 px: the front fruit's at most front_radius x pr
         front = self._fit_part(part, outer, pr,
                                r_high=max(p['front_radius'] - 2.0 / pr, 0.85))
-        if front is None or len(front) < 4 or front[2] >= circle[2] or \
+        if front is None or front[2] >= circle[2] or \
                 front[3] > min(residual, p['max_residual_refit']):
             return candidate
         cx, cy, r = front[:3]
-        a = np.linspace(0.0, 2.0 * math.pi, samples, endpoint=False)
-        xs = np.rint(cx + r * np.cos(a)).astype(np.int64) - ox
-        ys = np.rint(cy + r * np.sin(a)).astype(np.int64) - oy
-        on = (xs >= 0) & (ys >= 0) & (xs < inscribed.shape[1]) & (ys < inscribed.shape[0])
+        xs, ys, on = circle_pixels(cx - ox, cy - oy, r, inscribed.shape, samples)
         # inside the part, 3 px or more from its edge
         if np.count_nonzero(inscribed[ys[on], xs[on]] > 3.0) < min_inner:
             return candidate
@@ -481,20 +478,6 @@ class RegionSplitter(object):
 
     #: circle of a part's outline (vision_pkg.circle_fit.fit_part)
     _fit_part = staticmethod(fit_part)
-
-
-def own_arc_misfit(part, outer, cx, cy, r):
-    """Median radial misfit / r of a part's outline pixels (those of `outer` on it; crop
-    pixels) that do not lie outside the circle: outline beyond 1 px + 3 % of r from it is
-    another fruit's, the one behind. 1.0 when fewer than 8 such pixels."""
-    ys, xs = np.nonzero(outer & part)
-    if len(xs) < 8:
-        return 1.0
-    d = np.hypot(xs - cx, ys - cy) - r
-    own = np.abs(d[d <= 1.0 + 0.03 * r])
-    if len(own) < 8:
-        return 1.0
-    return float(np.median(own)) / r
 
 
 def share_inside(det, other):
