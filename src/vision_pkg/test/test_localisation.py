@@ -495,6 +495,57 @@ def test_a_fruit_whose_points_are_all_a_fruit_in_front_gets_no_3d_point():
     assert back_loc is None
 
 
+def test_a_fruit_ranged_on_the_crescent_of_a_neighbour_in_front_gets_no_3d_point(
+        monkeypatch):
+    """The neighbour in front is detected with a circle a little smaller than its silhouette
+    (block matching also spreads its disparity past its edge): outside that circle a crescent
+    of its points is left in the circle of the fruit behind, which has no points of its own
+    there, and the fruit behind was located on it, its sphere deep inside the neighbour's
+    (renders: 76-170 mm too near). Two fruit cannot fill the same space, and the one ranged on
+    few points per pixel of its circle has no 3D point."""
+    cloud, image, det, truth, neighbour = _fruit_behind_a_neighbour(back_step=1000)
+    whole = _neighbour_detection(neighbour)
+    front = Detection(whole.u, whole.v, whole.radius_px - 4.0, 0.9)
+    monkeypatch.setattr(localisation, 'unsupported_overlaps', lambda *args, **kwargs: set())
+    front_loc, back_loc = localisation.locate_all(cloud, [front, det], P_RIGHT, image=image)
+    assert back_loc is not None, 'the test needs a fruit located on the crescent'
+    assert np.linalg.norm(back_loc.centre - truth) > 0.03
+    assert np.linalg.norm(back_loc.centre - front_loc.centre) < \
+        back_loc.radius + front_loc.radius, 'the two spheres must intersect'
+    monkeypatch.undo()
+    front_loc2, back_loc2 = localisation.locate_all(cloud, [front, det], P_RIGHT, image=image)
+    assert back_loc2 is None
+    assert np.array_equal(front_loc2.centre, front_loc.centre)
+    # (its circle 4 px small: the cone is narrower and the sphere 3.5 mm nearer)
+    assert np.linalg.norm(front_loc2.centre - neighbour) < 0.005
+
+
+def _located(centre, radius, points):
+    return localisation.FruitLocation(np.asarray(centre, dtype=np.float64), radius, points,
+                                      np.asarray(centre, dtype=np.float64))
+
+
+def test_of_two_intersecting_spheres_the_one_on_few_points_is_withdrawn():
+    """unsupported_overlaps: only where the circles overlap and the spheres intersect, and
+    only the one with less than half the other's points per pixel of its circle; a location
+    it withdraws withdraws none itself."""
+    dets = [Detection(300.0, 240.0, 50.0, 0.9), Detection(360.0, 240.0, 30.0, 0.9),
+            Detection(400.0, 240.0, 30.0, 0.9), Detection(600.0, 240.0, 30.0, 0.9)]
+    locs = [_located([0.0, 0.0, 0.55], 0.03, 4000),     # 0.51 points per pixel
+            _located([0.03, 0.0, 0.56], 0.02, 300),     # 0.11: inside the first
+            _located([0.055, 0.0, 0.57], 0.02, 250),    # 0.09: touches only the second
+            _located([0.03, 0.0, 0.56], 0.02, 10)]      # its circle is far from the others
+    assert localisation.unsupported_overlaps(dets, locs) == {1}
+    # alike support: both stay (either could be the wrong one)
+    locs[1], locs[2] = _located([0.03, 0.0, 0.56], 0.02, 1200), None
+    assert localisation.unsupported_overlaps(dets, locs) == set()
+    # spheres apart (the second behind the first): both stay
+    locs[1] = _located([0.03, 0.0, 0.62], 0.02, 300)
+    assert localisation.unsupported_overlaps(dets, locs) == set()
+    # no location, nothing to withdraw
+    assert localisation.unsupported_overlaps(dets, [None] * 4) == set()
+
+
 def test_skin_mismatched_behind_a_fruit_does_not_take_its_place():
     """Block matching ranges patches of a smooth skin 3-4 cm behind it (renders: a fully
     visible fruit's 91 points behind its 685). They pass the colour and radius tests and lie
