@@ -526,9 +526,10 @@ def _located(centre, radius, points):
 
 
 def test_of_two_intersecting_spheres_the_one_on_few_points_is_withdrawn():
-    """unsupported_overlaps: only where the circles overlap and the spheres intersect, and
-    only the one with less than half the other's points per pixel of its circle; a location
-    it withdraws withdraws none itself."""
+    """unsupported_overlaps: only where the circles overlap and the spheres intersect by more
+    than touching fruit's, only the one with less than half the other's points per pixel of
+    its circle, and only against a location on enough points; a location it withdraws
+    withdraws none itself."""
     dets = [Detection(300.0, 240.0, 50.0, 0.9), Detection(360.0, 240.0, 30.0, 0.9),
             Detection(400.0, 240.0, 30.0, 0.9), Detection(600.0, 240.0, 30.0, 0.9)]
     locs = [_located([0.0, 0.0, 0.55], 0.03, 4000),     # 0.51 points per pixel
@@ -541,6 +542,13 @@ def test_of_two_intersecting_spheres_the_one_on_few_points_is_withdrawn():
     assert localisation.unsupported_overlaps(dets, locs) == set()
     # spheres apart (the second behind the first): both stay
     locs[1] = _located([0.03, 0.0, 0.62], 0.02, 300)
+    assert localisation.unsupported_overlaps(dets, locs) == set()
+    # touching, as fruit of a truss do (centres 0.95 of the radii's sum apart): both stay
+    locs[1] = _located([0.0475, 0.0, 0.55], 0.02, 300)
+    assert localisation.unsupported_overlaps(dets, locs) == set()
+    # the better supported one rests on a dim skin's few points (0.1 per pixel): both stay
+    locs[0] = _located([0.0, 0.0, 0.55], 0.03, 785)
+    locs[1] = _located([0.03, 0.0, 0.56], 0.02, 30)
     assert localisation.unsupported_overlaps(dets, locs) == set()
     # no location, nothing to withdraw
     assert localisation.unsupported_overlaps(dets, [None] * 4) == set()
