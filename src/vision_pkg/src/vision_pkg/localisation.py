@@ -134,11 +134,11 @@ the rule without that minimum withdrew f19_1, the right one, in 3 of the 16 nois
 low_light f00_1 in one, on 0.04 against 0.09; the renders' fruit that the rule mends lay
 beside neighbours on 0.15-0.47). Fruit of a truss touch: dense_cluster's f00_6,
 located right beside a neighbour at 1.00 of their radii's sum, lost its 3D point in 3 pairs
-without the gap's tolerance. On three seeds of renders (120 frames each) the rule withdraws 12
-locations: 6 of fruit matched by the benchmark, 18-170 mm off, and 6 of detections matched to
-no fruit, 15-44 mm from the nearest fruit's centre. Seed 2's 3D error p95 6.0 -> 5.1 mm (225 ->
-222 ripe fruit located, 18, 88 and 170 mm off), seeds 1 and 3 unchanged; the mission
-scenarios' perception audit (tools/perception_audit.py, 16 noise-frame pairs per picking
+without the gap's tolerance. On three seeds of renders (120 frames each, with
+`silhouette_cone`) the rule withdraws 12 locations, none within 17 mm of a fruit's centre: 5 of
+fruit matched by the benchmark (18-116 mm off) and 7 of detections matched to no fruit. Seed
+2's 3D error p95 5.5 -> 4.9 mm (224 -> 222 ripe fruit located), seeds 1 and 3 unchanged; the
+mission scenarios' perception audit (tools/perception_audit.py, 16 noise-frame pairs per picking
 point): no fruit located within its 12 mm in a pair loses that location.
 """
 import math
