@@ -583,7 +583,7 @@ def hidden_behind(fits, chosen, dist, min_points=MIN_POINTS, min_share=BEHIND_MI
 
 def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image=None,
            specular_ratio=SPECULAR_RATIO, radius_range=FRUIT_RADIUS_RANGE, hidden=(),
-           circle_points=None):
+           circle_points=None, cone=None):
     """FruitLocation of a detection (cloud frame), or None when too few valid points (in all,
     or in the core of its silhouette).
 
@@ -591,7 +591,8 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
     on the specular highlight are ranged as its virtual image, and of several depth clusters
     the fruit's skin is kept (module docstring). radius_range: a fruit's 3D radius (m).
     hidden: circles (u, v, radius_px) of fruit in front of this one: their points are not its
-    (`locate_all`). circle_points: the detection's points_in_circle, if known."""
+    (`locate_all`). circle_points: the detection's points_in_circle, if known; cone: its
+    silhouette_cone, if known."""
     fx, fy, cx, cy, baseline = projection_params(right_p)
     pts, pu, pv = points_on_fruit(cloud, detection, right_p, pixels=True) \
         if circle_points is None else _on_part(detection, circle_points)
@@ -609,7 +610,7 @@ def locate(cloud, detection, right_p, min_points=MIN_POINTS, iterations=3, image
         if glint.any() else np.full(len(pts), 0.5)
     offset = np.array([baseline, 0.0, 0.0])     # right camera centre in the left frame
     pr = pts - offset
-    axis, alpha = silhouette_cone(detection, fx, fy, cx, cy)
+    axis, alpha = silhouette_cone(detection, fx, fy, cx, cy) if cone is None else cone
     t = pr.dot(axis)
     lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
     sin_a = math.sin(alpha)
@@ -676,12 +677,15 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
     far fewer points per pixel of its circle than the other has no 3D point
     (`unsupported_overlaps`).
     Cost: at most one more `locate` per detection (and a point count per overlapping pair),
-    only where circles overlap, and one pass over each circle's points."""
+    only where circles overlap, and one pass over each circle's points and outline."""
     kwargs = dict(kwargs, image=image, radius_range=radius_range)
     # each detection's circle points, projected once for all that follows
     circles = [points_in_circle(cloud, d, right_p) for d in detections]
-    first = [locate(cloud, d, right_p, circle_points=c, **kwargs)
-             for d, c in zip(detections, circles)]
+    # and each one's centre ray and angular radius
+    fx, fy, cx, cy, _ = projection_params(right_p)
+    cones = [silhouette_cone(d, fx, fy, cx, cy) for d in detections]
+    first = [locate(cloud, d, right_p, circle_points=c, cone=k, **kwargs)
+             for d, c, k in zip(detections, circles, cones)]
     dists = [None if loc is None else float(np.linalg.norm(loc.centre)) for loc in first]
     out = list(first)
     for i, (d, loc) in enumerate(zip(detections, first)):
@@ -694,10 +698,10 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
         level = [j for j in over if abs(dists[j] - dists[i]) <= margin]
         if ahead:
             out[i] = locate(cloud, d, right_p, hidden=_circles(detections, ahead),
-                            circle_points=circles[i], **kwargs)
+                            circle_points=circles[i], cone=cones[i], **kwargs)
         elif level:
             again = locate(cloud, d, right_p, hidden=_circles(detections, level),
-                           circle_points=circles[i], **kwargs)
+                           circle_points=circles[i], cone=cones[i], **kwargs)
             if again is not None:
                 if float(np.linalg.norm(again.centre)) > max(dists[j] for j in level) + margin:
                     out[i] = again
@@ -706,8 +710,8 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
                 out[i] = None
     # each location against the points of its whole circle
     out = [None if loc is None else seen_through(cloud, d, right_p, loc, image, radius_range,
-                                                 circle_points=c)
-           for d, loc, c in zip(detections, out, circles)]
+                                                 circle_points=c, cone=k)
+           for d, loc, c, k in zip(detections, out, circles, cones)]
     # last, two fruit cannot fill the same space
     withdrawn = unsupported_overlaps(detections, out)
     return [None if i in withdrawn else loc for i, loc in enumerate(out)]
@@ -765,17 +769,17 @@ def _on_part(detection, circle_points):
     return pts[on], pu[on], pv[on]
 
 
-def _circle_rays(cloud, detection, right_p, circle_points=None):
+def _circle_rays(cloud, detection, right_p, circle_points=None, cone=None):
     """The points of the detection's circle (points_in_circle, or `circle_points`) on its
-    centre ray: (u, v, points relative to the right camera, t along the ray, lateral offset
-    from it, the ray's axis, its angular radius alpha, the right camera's centre in the cloud
-    frame)."""
+    centre ray (silhouette_cone, or `cone`): (u, v, points relative to the right camera, t
+    along the ray, lateral offset from it, the ray's axis, its angular radius alpha, the right
+    camera's centre in the cloud frame)."""
     fx, fy, cx, cy, baseline = projection_params(right_p)
     pts, pu, pv = points_in_circle(cloud, detection, right_p) if circle_points is None \
         else circle_points
     offset = np.array([baseline, 0.0, 0.0])
     pr = pts - offset
-    axis, alpha = silhouette_cone(detection, fx, fy, cx, cy)
+    axis, alpha = silhouette_cone(detection, fx, fy, cx, cy) if cone is None else cone
     t = pr.dot(axis)
     lateral = np.linalg.norm(pr - t[:, None] * axis[None, :], axis=1)
     return pu, pv, pr, t, lateral, axis, alpha, offset
@@ -792,14 +796,15 @@ def _ranged_centre_distances(image, detection, pu, pv, t, lateral, sin_a):
 
 
 def seen_through(cloud, detection, right_p, loc, image=None, radius_range=FRUIT_RADIUS_RANGE,
-                 min_points=MIN_POINTS, share=SEEN_THROUGH_SHARE, circle_points=None):
+                 min_points=MIN_POINTS, share=SEEN_THROUGH_SHARE, circle_points=None,
+                 cone=None):
     """The detection's location `loc` checked against the points of its whole circle (module
     docstring): `loc` when too few points off its part are seen behind it, else the depth
     cluster of the circle's core points with a fruit's radius that leaves too few and has the
     most points on its sphere (a FruitLocation at its median centre distance), else None.
-    circle_points: the detection's points_in_circle, if known."""
+    circle_points: the detection's points_in_circle, if known; cone: its silhouette_cone."""
     pu, pv, pr, t, lateral, axis, alpha, offset = _circle_rays(cloud, detection, right_p,
-                                                               circle_points)
+                                                               circle_points, cone)
     core = np.nonzero(lateral < math.tan(EDGE_FRACTION * alpha) * t)[0]
     foreign = ~detection.contains(pu[core], pv[core])
     if np.count_nonzero(foreign) < min_points:
