@@ -693,7 +693,7 @@ def locate_all(cloud, detections, right_p, image=None, radius_range=FRUIT_RADIUS
             continue
         margin = FRONT_MARGIN * loc.radius
         over = [j for j, o in enumerate(detections) if j != i and first[j] is not None
-                and math.hypot(o.u - d.u, o.v - d.v) < o.radius_px + d.radius_px]
+                and _circles_overlap(o, d)]
         ahead = [j for j in over if dists[j] < dists[i] - margin]
         level = [j for j in over if abs(dists[j] - dists[i]) <= margin]
         if ahead:
@@ -733,13 +733,18 @@ def unsupported_overlaps(detections, locations, ratio=OVERLAP_SUPPORT_RATIO, gap
         for j in kept:
             b, db = locations[j], detections[j]
             if support[j] >= min_support and support[i] < ratio * support[j] and \
-                    math.hypot(da.u - db.u, da.v - db.v) < da.radius_px + db.radius_px and \
+                    _circles_overlap(da, db) and \
                     np.linalg.norm(a.centre - b.centre) < gap * (a.radius + b.radius):
                 withdrawn.add(i)
                 break
         else:
             kept.append(i)
     return withdrawn
+
+
+def _circles_overlap(a, b):
+    """Do the circles of detections a and b overlap in the image?"""
+    return math.hypot(a.u - b.u, a.v - b.v) < a.radius_px + b.radius_px
 
 
 def points_in_circle(cloud, detection, right_p):
