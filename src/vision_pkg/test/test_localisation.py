@@ -182,6 +182,34 @@ def test_silhouette_cone_of_a_fruit_cut_by_the_image_corner():
     assert abs(a_circle / alpha - 1.0) > 0.03, 'the test needs a circle that misleads'
 
 
+def test_silhouette_cone_the_circle_contradicts_is_not_taken(monkeypatch):
+    """Where the part's outline follows the circle only along a short arc (here a larger
+    outline, touching the circle from outside at one side), the cone through that arc is
+    poorly constrained: one whose angular radius or axis the circle contradicts gives way to
+    the circle's sphere_ray."""
+    f, cx, cy, scale = 788.4, 511.5, 383.5, 0.5
+    u0, v0, r = 600.0, 400.0, 40.0
+    my, mx = np.mgrid[0:int(768 * scale), 0:int(1024 * scale)].astype(np.float64)
+    u, v = (mx + 0.5) / scale - 0.5, (my + 0.5) / scale - 0.5
+    big = 1.6 * r             # its outline meets the circle at (u0 + r, v0) only
+    mask = np.hypot(u - (u0 - 0.6 * r), v - v0) <= big
+    det = Detection(u0, v0, r, 0.9, mask=mask, mask_origin=(0, 0), mask_scale=scale)
+    circle = localisation.sphere_ray(u0, v0, r, f, f, cx, cy)
+    on = localisation.outline_on_circle(det)
+    assert on is not None and len(on[0]) >= localisation.MIN_POINTS, 'enough outline on the arc'
+    assert len(set(localisation.sector_index(*on).tolist())) <= 6, 'a quarter of the circle at most'
+    with monkeypatch.context() as m:
+        m.setattr(localisation, '_cone_agrees', lambda cone, circle: True)
+        loose = localisation.silhouette_cone(det, f, f, cx, cy)
+    assert not localisation._cone_agrees(loose, circle), 'the test needs a cone that misleads'
+    axis, alpha = localisation.silhouette_cone(det, f, f, cx, cy)
+    assert alpha == circle[1] and np.array_equal(axis, circle[0])
+    # the bounds themselves: a cone within them is taken
+    assert localisation._cone_agrees((circle[0], circle[1] * 1.2), circle)
+    assert not localisation._cone_agrees((circle[0], circle[1] * 1.4), circle)
+    assert not localisation._cone_agrees((circle[0], circle[1] / 1.4), circle)
+
+
 @pytest.mark.parametrize('point_step', [16, 32])
 def test_cloud_array_from_pointcloud2_bytes(point_step):
     h, w = 3, 4

@@ -19,14 +19,16 @@ of its ellipse, whose circle is not that (plant_factory_led f02_3, held in the i
 3D radius 52.6 mm for 44.6, moved 14 mm by the relocation, the shear closed 12 mm from its
 peduncle and the fruit was torn off), and the circle's misfit to the ellipse's ends costs
 even whole silhouettes: renders 3D error median 0.8 / 0.9 / 0.8 -> 0.6 / 0.7 / 0.6 mm, p95
-4.8 / 5.1 / 5.0 -> 3.8 / 4.9 / 4.5 mm on seeds 1-3. Without a part mask or with fewer than
-MIN_POINTS such pixels the circle's sphere_ray is used. Each surface point p on the fruit
-gives its own centre-distance estimate: its depth t along the centre ray pushed back by the
-sphere's thickness at its lateral offset rho, D_i = t + sqrt(R^2 - rho^2) (for the central
-point, exactly "the surface point pushed back by the radius along the viewing ray"). The median of
-the D_i over valid points (holes and outliers do not matter), iterated twice with R = D sin
-alpha, gives the centre; only points with rho < EDGE_FRACTION * R are used, because block
-matching smears the disparity of the fruit rim onto the background and back.
+4.8 / 5.1 / 5.0 -> 3.8 / 4.9 / 4.5 mm on seeds 1-3. Without a part mask, with fewer than
+MIN_POINTS such pixels or with a cone the circle contradicts (`_cone_agrees`: an outline on a
+short arc of the circle constrains the cone poorly) the circle's sphere_ray is used. Each
+surface point p on the fruit gives its own centre-distance estimate: its depth t along the
+centre ray pushed back by the sphere's thickness at its lateral offset rho,
+D_i = t + sqrt(R^2 - rho^2) (for the central point, exactly "the surface point pushed back by
+the radius along the viewing ray"). The median of the D_i over valid points (holes and
+outliers do not matter), iterated twice with R = D sin alpha, gives the centre; only points
+with rho < EDGE_FRACTION * R are used, because block matching smears the disparity of the
+fruit rim onto the background and back.
 
 Glossy skin: the highlight of a light source in the skin is the source's virtual image in a
 convex mirror, behind the skin (the focal length R/2 behind its mirror point, seen head-on, light
@@ -169,6 +171,11 @@ OUTLINE_BINS = 24
 #: a part's outline pixel this close to the circle (fraction of its radius, at least 1.5 pixels
 #: of the mask) follows it
 OUTLINE_TOL = 0.06
+#: silhouette_cone: a cone whose angular radius differs from the circle's by more than this
+#: factor, or whose axis lies more than CONE_AXIS_SHIFT x the circle's angular radius off the
+#: circle's centre ray, is not taken (renders: 0.86-1.22 and at most 0.30 over 1398 detections)
+CONE_RADIUS_FACTOR = 1.35
+CONE_AXIS_SHIFT = 0.5
 #: a sector whose arc is this much covered by outline pixels on the circle is the fruit's edge
 OUTLINE_COVER = 0.5
 #: points nearer the circle's centre than this fraction of its radius have no sector
@@ -475,7 +482,11 @@ def silhouette_cone(detection, fx, fy, cx, cy, tol=OUTLINE_TOL, min_points=MIN_P
     the angle alpha with the centre ray c, m . w = 1 with w = c / cos(alpha): a linear least
     squares fit, refitted `refits` times without the rays more than three times the median
     angular misfit off the cone (at least a pixel's angle). Without a mask, with fewer than
-    `min_points` such pixels or no cone that fits them: `sphere_ray` of the circle."""
+    `min_points` such pixels, no cone that fits them or one the circle contradicts (its angular
+    radius off the circle's by more than `CONE_RADIUS_FACTOR`, its axis more than
+    `CONE_AXIS_SHIFT` x that radius off the circle's ray: an outline on a short arc of the circle
+    constrains the cone poorly): `sphere_ray` of the circle."""
+    circle = sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
     on = outline_on_circle(detection, tol)
     if on is not None and len(on[0]) >= min_points:
         du, dv = on
@@ -501,9 +512,18 @@ def silhouette_cone(detection, fx, fy, cx, cy, tol=OUTLINE_TOL, min_points=MIN_P
             cone = (w / norm, math.acos(1.0 / norm))
             misfit = np.abs(np.arccos(np.clip(rays.dot(cone[0]), -1.0, 1.0)) - cone[1])
             keep = misfit <= max(3.0 * float(np.median(misfit[keep])), pixel)
-        if cone is not None:
+        if cone is not None and _cone_agrees(cone, circle):
             return cone
-    return sphere_ray(detection.u, detection.v, detection.radius_px, fx, fy, cx, cy)
+    return circle
+
+
+def _cone_agrees(cone, circle, factor=CONE_RADIUS_FACTOR, shift=CONE_AXIS_SHIFT):
+    """Whether silhouette_cone's (axis, alpha) is within `factor` of the circle's sphere_ray
+    in angular radius and its axis within `shift` x the circle's angular radius of its ray."""
+    (axis, alpha), (c_axis, c_alpha) = cone, circle
+    if not (c_alpha / factor <= alpha <= c_alpha * factor):
+        return False
+    return math.acos(min(1.0, float(np.dot(axis, c_axis)))) <= shift * c_alpha
 
 
 def sector_index(du, dv, bins=OUTLINE_BINS):
