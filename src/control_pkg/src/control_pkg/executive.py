@@ -7,6 +7,7 @@ ROOT (StateMachine)
   RUN (Concurrence)                      the mission, watched by the emergency-stop monitor
     MISSION (StateMachine)
       DO_START                           Start.action: self-test of every component
+      PARK_ARMS                          both arms home (DO_MOVE_ROBOT), wherever they stood
       NEXT_POINT                         next picking point of the plan, or mission complete
       DO_MOVEBASE                        MoveBase.action: cart to the picking point
       SCAN (Concurrence)
@@ -168,6 +169,11 @@ class _Graph(object):
             add('RESUME', self.resume(), transitions={'succeeded': 'DO_START', 'aborted': 'DO_ERROR'})
             add('DO_START', self.action('DO_START', 'self_test', StartAction,
                                         goal_cb=cb.start_goal, result_cb=cb.start_result),
+                transitions={'succeeded': 'PARK_ARMS', 'aborted': 'DO_ERROR'})
+            # the cart never moves with an arm out: both arms home (and the waist at 0) before
+            # the first DO_MOVEBASE, wherever they stood at start (a point ends with the cutting
+            # hand home and the suction arm over the box, on the cart)
+            add('PARK_ARMS', self.home(),
                 transitions={'succeeded': 'NEXT_POINT', 'aborted': 'DO_ERROR'})
             add('NEXT_POINT', NextPoint(c),
                 transitions={'point': 'DO_MOVEBASE', 'done': 'succeeded', 'error': 'DO_ERROR'})

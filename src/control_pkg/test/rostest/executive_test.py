@@ -104,7 +104,7 @@ class ExecutiveTest(unittest.TestCase):
         self.assertTrue(w.wait(lambda: all(p in w.structures for p in paths)),
                         'structures seen: %s' % sorted(w.structures))
         mission = w.structures['/SM_ROOT/RUN/MISSION']
-        for label in ('DO_START', 'DO_MOVEBASE', 'SCAN', 'PICK_TARGET', 'DO_ERROR'):
+        for label in ('DO_START', 'PARK_ARMS', 'DO_MOVEBASE', 'SCAN', 'PICK_TARGET', 'DO_ERROR'):
             self.assertIn(label, mission.children)
         self.assertIn('DO_STOP', w.structures['/SM_ROOT'].children)
         scan = w.structures['/SM_ROOT/RUN/MISSION/SCAN']
@@ -175,6 +175,10 @@ class ExecutiveTest(unittest.TestCase):
         s = self.start_and_finish()
         moves = [g for g in w.goals if g.startswith('move_base')]
         self.assertEqual(moves, ['move_base 2', 'move_base 0'], 'the plan of the day was not followed')
+        # the cart never moves with an arm out: both arms sent home (PARK_ARMS) before it first
+        # moves, wherever they stood at start
+        before = [g for g in w.goals[:w.goals.index('move_base 2')] if g.startswith('move_robot')]
+        self.assertEqual(before, ['move_robot left', 'move_robot right'], w.goals)
         self.assertEqual(s['picked'], 1, s)          # the target at point 1 is not in the plan
 
     def check_cut_check(self):
