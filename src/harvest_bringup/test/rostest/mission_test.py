@@ -36,6 +36,8 @@ Params:
       reachable fruit is collected
   ~expect_restarts (list of node names, []): each of these nodes (killed by ~faults and respawned)
       has a mission event `restart` naming it, on mission/events and in the store
+  ~expect_waist_turn (float, rad, 0: no check): the waist (joint_states' waist_joint) turned at
+      least this far during the mission, and is back at 0 at its end (the box is on the cart)
 """
 import json
 import math
@@ -73,6 +75,8 @@ class Watch(object):
         self.summary = None
         self.active = {}
         self.velocities = None
+        self.waist = None             # the waist joint's last position and its largest |turn|
+        self.max_waist_turn = 0.0
         self.fruits = None
         self.restarts = []            # node names of the `restart` events on mission/events
         self.records = []             # every PickRecord of mission/pick_records, in order
@@ -81,7 +85,7 @@ class Watch(object):
         rospy.Subscriber('/sim/fruits', SimFruitArray, self._set('fruits', lambda m: list(m.fruits)))
         rospy.Subscriber('/mission/summary', String, self._set('summary', lambda m: json.loads(m.data)))
         rospy.Subscriber('/harvest_executive/smach/container_status', SmachContainerStatus, self._status)
-        rospy.Subscriber('/joint_states', JointState, self._set('velocities', lambda m: list(m.velocity)))
+        rospy.Subscriber('/joint_states', JointState, self._joints)
 
     def _set(self, name, conv):
         def cb(msg):
@@ -89,6 +93,14 @@ class Watch(object):
                 setattr(self, name, conv(msg))
                 self.cond.notify_all()
         return cb
+
+    def _joints(self, msg):
+        with self.cond:
+            self.velocities = list(msg.velocity)
+            if 'waist_joint' in msg.name:
+                self.waist = msg.position[msg.name.index('waist_joint')]
+                self.max_waist_turn = max(self.max_waist_turn, abs(self.waist))
+            self.cond.notify_all()
 
     def _event(self, msg):
         if msg.kind == 'restart':
@@ -198,6 +210,14 @@ class MissionTest(unittest.TestCase):
         expect_restarts = list(rospy.get_param('~expect_restarts', []))
         if expect_restarts:
             self.check_restarts(w, s, expect_restarts)
+        expect_waist = float(rospy.get_param('~expect_waist_turn', 0.0))
+        if expect_waist > 0.0:
+            # joint_states may be a poll behind the summary: wait for the waist's last position
+            back = w.wait(lambda: w.waist is not None and abs(w.waist) < 0.01, 10.0)
+            with w.cond:
+                turn, waist = w.max_waist_turn, w.waist
+            self.assertGreaterEqual(turn, expect_waist, 'the waist turned at most %.3f rad' % turn)
+            self.assertTrue(back, 'the waist ended at %s rad, not 0' % waist)
 
     def check_restarts(self, w, s, names):
         """A `restart` event of each node (the task planner sees a respawned node register
