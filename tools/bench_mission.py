@@ -16,9 +16,9 @@ each schedule's motion-time lower bound (per picked fruit, of the arm moves actu
 cycle, the minimal trapezoidal times at robot.yaml's limits summed per arm, the larger arm's)
 and its cycle's ratio to it, the pipelined bound over the paper's mean cycle (the least ratio
 any schedule sending the same arm moves can reach), each schedule's mean cycle of the first
-fruit picked at a picking point (the arms come from home) and of the others, with their ratios,
-and the mean time per picked fruit spent in
-each state label (the states of an overlap run at the same time, so they add up to more than
+fruit picked at a picking point (the cutting hand comes from home, the suction arm from the
+box) and of the others, with their ratios, and the mean time per picked fruit spent in each
+state label (the states of an overlap run at the same time, so they add up to more than
 the cycle).
 """
 import argparse
@@ -85,7 +85,8 @@ def cycles_by_position(run, gap=0.5):
     with an attempt whose cycle starts more than `gap` s after the previous attempt ended (at a
     point each cycle starts as the one before ends; between points the base moves and the stereo
     head looks, 3 s and more). The first fruit picked in a visit (unless an attempt that moved the
-    arms failed before it) comes with its arms from home."""
+    arms failed before it) comes with the cutting hand from home, the suction arm from the
+    box (control_pkg's PARK_ARMS leaves them so before the first point)."""
     first, later = [], []
     previous, new_point = None, True
     for r in sorted((r for r in run['records'] if 'end' in r), key=lambda r: r['end']):
@@ -294,7 +295,7 @@ def print_comparison(runs, out=sys.stdout):
                  for r in rs]
         by_position[schedule] = [[t for f in split for t in f[k]] for k in (0, 1)]
     out.write("cycle by the fruit's place at its picking point [s/fruit, sim]: the first picked "
-              'there (arms from home) / the others\n')
+              'there (cutting hand from home) / the others\n')
     for schedule in SCHEDULES:
         out.write('  %-10s %s (%d) / %s (%d)\n' % (
             schedule, _fmt(mean(by_position[schedule][0])), len(by_position[schedule][0]),

@@ -7,7 +7,7 @@ ROOT (StateMachine)
   RUN (Concurrence)                      the mission, watched by the emergency-stop monitor
     MISSION (StateMachine)
       DO_START                           Start.action: self-test of every component
-      PARK_ARMS                          both arms home (DO_MOVE_ROBOT), wherever they stood
+      PARK_ARMS                          left arm home, right arm over the box (DO_MOVE_ROBOT)
       NEXT_POINT                         next picking point of the plan, or mission complete
       DO_MOVEBASE                        MoveBase.action: cart to the picking point
       SCAN (Concurrence)
@@ -170,10 +170,10 @@ class _Graph(object):
             add('DO_START', self.action('DO_START', 'self_test', StartAction,
                                         goal_cb=cb.start_goal, result_cb=cb.start_result),
                 transitions={'succeeded': 'PARK_ARMS', 'aborted': 'DO_ERROR'})
-            # the cart never moves with an arm out: both arms home (and the waist at 0) before
-            # the first DO_MOVEBASE, wherever they stood at start (a point ends with the cutting
-            # hand home and the suction arm over the box, on the cart)
-            add('PARK_ARMS', self.home(),
+            # the cart never moves with an arm out: before the first DO_MOVEBASE the arms go
+            # where every point leaves them (the cutting hand home, the waist at 0, the suction
+            # arm over the box, on the cart), wherever they stood at start
+            add('PARK_ARMS', self.park(),
                 transitions={'succeeded': 'NEXT_POINT', 'aborted': 'DO_ERROR'})
             add('NEXT_POINT', NextPoint(c),
                 transitions={'point': 'DO_MOVEBASE', 'done': 'succeeded', 'error': 'DO_ERROR'})
@@ -356,6 +356,18 @@ class _Graph(object):
                 transitions={'succeeded': 'RESUME_HOME'})
             add('RESUME_HOME', self.home(), transitions={'succeeded': 'RESUME_DONE'})
             add('RESUME_DONE', Decide(cb.resume_done, ['done']), transitions={'done': 'succeeded'})
+        return sm
+
+    def park(self):
+        """PARK_ARMS: the left arm home (and the waist at 0), then the right arm over the box,
+        where both rest between picking points."""
+        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
+        with sm:
+            smach.StateMachine.add('DO_MOVE_ROBOT', self.move_fixed(
+                'DO_MOVE_ROBOT', ARM_LEFT, list(self.cfg['home']['left']) + [0.0]),
+                transitions={'succeeded': 'DO_MOVE_ROBOT_BOX'})
+            smach.StateMachine.add('DO_MOVE_ROBOT_BOX', self.move_fixed(
+                'DO_MOVE_ROBOT', ARM_RIGHT, self.cfg['collection_box_right']))
         return sm
 
     def home(self):
