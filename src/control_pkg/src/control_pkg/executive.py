@@ -361,22 +361,20 @@ class _Graph(object):
     def park(self):
         """PARK_ARMS: the left arm home (and the waist at 0), then the right arm over the box,
         where both rest between picking points."""
-        sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
-        with sm:
-            smach.StateMachine.add('DO_MOVE_ROBOT', self.move_fixed(
-                'DO_MOVE_ROBOT', ARM_LEFT, list(self.cfg['home']['left']) + [0.0]),
-                transitions={'succeeded': 'DO_MOVE_ROBOT_BOX'})
-            smach.StateMachine.add('DO_MOVE_ROBOT_BOX', self.move_fixed(
-                'DO_MOVE_ROBOT', ARM_RIGHT, self.cfg['collection_box_right']))
-        return sm
+        return self._left_home_then_right('DO_MOVE_ROBOT_BOX', self.cfg['collection_box_right'])
 
     def home(self):
         """Both arms home: the left arm (and the waist back to 0), then the right arm."""
+        return self._left_home_then_right('DO_MOVE_ROBOT_RIGHT', self.cfg['home']['right'])
+
+    def _left_home_then_right(self, right_state, right_joints):
+        """The left arm home with the waist at 0, then the right arm to `right_joints` (state
+        `right_state`, label DO_MOVE_ROBOT)."""
         sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
         with sm:
             smach.StateMachine.add('DO_MOVE_ROBOT', self.move_fixed(
                 'DO_MOVE_ROBOT', ARM_LEFT, list(self.cfg['home']['left']) + [0.0]),
-                transitions={'succeeded': 'DO_MOVE_ROBOT_RIGHT'})
-            smach.StateMachine.add('DO_MOVE_ROBOT_RIGHT', self.move_fixed(
-                'DO_MOVE_ROBOT', ARM_RIGHT, self.cfg['home']['right']))
+                transitions={'succeeded': right_state})
+            smach.StateMachine.add(right_state, self.move_fixed('DO_MOVE_ROBOT', ARM_RIGHT,
+                                                                right_joints))
         return sm
