@@ -175,8 +175,8 @@ class ExecutiveTest(unittest.TestCase):
         s = self.start_and_finish()
         moves = [g for g in w.goals if g.startswith('move_base')]
         self.assertEqual(moves, ['move_base 2', 'move_base 0'], 'the plan of the day was not followed')
-        # the cart never moves with an arm out: both arms sent home (PARK_ARMS) before it first
-        # moves, wherever they stood at start
+        # the cart never moves with an arm out: the left arm home, the right arm over the box
+        # (PARK_ARMS) before it first moves, wherever they stood at start
         before = [g for g in w.goals[:w.goals.index('move_base 2')] if g.startswith('move_robot')]
         self.assertEqual(before, ['move_robot left', 'move_robot right'], w.goals)
         self.assertEqual(s['picked'], 1, s)          # the target at point 1 is not in the plan
