@@ -65,6 +65,9 @@ if [ -z "${HARVEST_TEST_PORT_OFFSET:-}" ]; then
   HARVEST_TEST_PORT_OFFSET="$(python -c 'from harvest_test_utils.net import free_port_offset; print(free_port_offset())')" || exit 1
 fi
 export HARVEST_TEST_PORT_OFFSET
+if [ -n "${HARVEST_TEST_SCHEDULE:-}" ]; then
+  echo "scenario mission rostests: task planner schedule $HARVEST_TEST_SCHEDULE (HARVEST_TEST_SCHEDULE)"
+fi
 echo "test ports: offset $HARVEST_TEST_PORT_OFFSET (controllers 15000-15099, farm server 18431, plus the offset)"
 TARGETS="$(make -C build help 2>/dev/null | sed -n 's/^\.\.\. \(run_tests_[a-z0-9_-]*\)$/\1/p')"
 ROSTEST_TARGETS=()    # run_tests_<package>_<type> of the other packages, <type> != pytest

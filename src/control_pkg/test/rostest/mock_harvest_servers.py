@@ -26,6 +26,8 @@ Params:
 Subscribes to mock/hold_moves (std_msgs/Bool): while the last one said true, a MoveRobot goal of
 the one-goal server waits (preemptable) before it starts its move_duration, so a test can look
 at the mission while one state stays active; notes "hold_moves on|off" on mock/goals.
+  ~hold_after_moves (int, 0): so many MoveRobot goals after the hold goes on still pass (a
+      mission's PARK_ARMS, two moves, before the right arm's first DO_MOVE_ROBOT).
 Serves get_checkpoint and get_mission_records (database_pkg's), notes every checkpoint on mock/goals
 ("checkpoint <phase> <holding> <finished>").
 Publishes mock/halt_count (std_msgs/Int32, latched), mock/goals (std_msgs/String: "<action> <detail>")
@@ -83,6 +85,8 @@ class MockServers(object):
         rospy.Subscriber('mission/checkpoints', Checkpoint, self.on_checkpoint, queue_size=100)
         self.hold = threading.Condition()
         self.holding = False
+        self.hold_after = int(rospy.get_param('~hold_after_moves', 0))
+        self.hold_pass = 0            # moves the hold still lets through
         rospy.Subscriber('mock/hold_moves', Bool, self.on_hold, queue_size=10)
         rospy.Service('get_checkpoint', GetCheckpoint, self.get_checkpoint)
         rospy.Service('get_mission_records', GetMissionRecords, self.get_records)
@@ -210,6 +214,8 @@ class MockServers(object):
 
     def on_hold(self, msg):
         with self.hold:
+            if msg.data and not self.holding:
+                self.hold_pass = self.hold_after
             self.holding = msg.data
             self.hold.notify_all()
         self.note('hold_moves %s' % ('on' if msg.data else 'off'))
@@ -217,7 +223,10 @@ class MockServers(object):
     def move_robot(self, goal):
         self.note('move_robot %s' % ('left' if goal.arm else 'right'))
         with self.hold:
-            while self.holding and not rospy.is_shutdown():
+            passed = self.holding and self.hold_pass > 0
+            if passed:
+                self.hold_pass -= 1
+            while self.holding and not passed and not rospy.is_shutdown():
                 if self.move_robot_server.is_preempt_requested():
                     self.move_robot_server.set_preempted(MoveRobotResult(succeed=-3),
                                                          'preempted while held')
