@@ -11,6 +11,7 @@ from harvest_msgs.msg import MoveBaseFeedback, MoveBaseResult, MoveRobotFeedback
 from motion_pkg import motion_goals as mg
 from motion_pkg.modbus_driver import ConnectionLost, DriverError
 from motion_pkg.motion_active_goals import _Active, _internal_error, answer
+from motion_pkg.motion_interlock import move_robot_refusal
 
 
 #: a goal that still reports progress
@@ -50,6 +51,7 @@ class AxesMovesMixin(object):
             return
         displaced, halted = [], {}
         try:
+            self._check_arms_may_move()
             names, targets, speeds = mg.validate_arm_goal(
                 goal.target_joint.positions, goal.target_joint.velocities, goal.arm, self.limits,
                 goal.waist if goal.move_waist else None)
@@ -128,10 +130,6 @@ class AxesMovesMixin(object):
         except DriverError as exc:
             return 'preempted, but halting failed: %s' % exc
 
-    def _start_axes_move(self, key, handle, names, targets, speeds, finish, feedback):
-        return self._write_axes_move(key, handle, self._plan_axes_move(names, targets, speeds),
-                                     finish, feedback)
-
     def _plan_axes_move(self, names, targets, speeds):
         """Check a move against the connection and the last poll; nothing is written."""
         self._await_link()
@@ -204,9 +202,38 @@ class AxesMovesMixin(object):
         if not math.isfinite(target):
             raise mg.GoalError('picking point %d position is not finite' % goal.picking_point)
         mg.check_range(self.limits['cart'], target)
-        return self._start_axes_move('move_base', handle, ['cart'], [target],
-                                     [self.limits['cart'].speed], self._finish_move_base,
+        plan = self._plan_axes_move(['cart'], [target], [self.limits['cart'].speed])
+        self._check_cart_may_move(plan[4])
+        return self._write_axes_move('move_base', handle, plan, self._finish_move_base,
                                      self._feedback_move_base)
+
+    # --- the cart interlock (motion_interlock) ----------------------------------------------
+    def _check_cart_may_move(self, state):
+        """GoalError unless both arms are stowed (in `state`, the poll the move is planned
+        on) and no arm goal runs."""
+        if self.interlock is None:
+            return
+        with self._lock:
+            moving = [a for g in self._arm_goals.goals() for a in self._arm_goals.arms_of(g)]
+        position = {n: state.axes[self.regmap.axis(n).index].position
+                    for n in self.regmap.axis_names}
+        joints = {arm: tuple(position.get('%s_%s' % (arm, j), float('nan'))
+                             for j in mg.ARM_JOINTS) for arm in mg.ARMS}
+        why = self.interlock.move_base_refusal(joints, position.get('waist', 0.0), moving)
+        if why:
+            rospy.logwarn('move_base refused: %s', why)
+            raise mg.GoalError(why)
+
+    def _check_arms_may_move(self):
+        """GoalError while a move_base goal runs."""
+        if self.interlock is None:
+            return
+        with self._lock:
+            cart_moving = self._active.get('move_base') is not None
+        why = move_robot_refusal(cart_moving)
+        if why:
+            rospy.logwarn('move_robot refused: %s', why)
+            raise mg.GoalError(why)
 
     def _feedback_move_base(self, handle, monitor, _state):
         progress_feedback(handle, monitor, lambda percent: MoveBaseFeedback(

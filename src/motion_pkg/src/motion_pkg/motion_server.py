@@ -18,6 +18,10 @@ Actions:       move_robot (harvest_msgs/MoveRobot), move_base (harvest_msgs/Move
                end_effector (harvest_msgs/EndEffector)
 Parameters:    see config/motion_server.yaml (all private).
 
+The cart interlock (``~cart_interlock``, ``motion_interlock``): a ``move_base`` goal is refused
+while an arm goal runs or an arm is not stowed over the cart, a ``move_robot`` goal while a
+``move_base`` goal runs.
+
 The node is composed of mixins, one module each: ``motion_link`` (poll, reconnect, link grace),
 ``motion_active_goals`` (the running goals), ``motion_moves`` (move_robot, move_base),
 ``motion_end_effector`` (end_effector) and ``motion_status`` (motion_status, diagnostics);
@@ -42,7 +46,9 @@ from motion_pkg.modbus_driver import DriverError, ModbusDriver
 from motion_pkg.modbus_map import RegisterMap, parse_serial_number
 # _Active, _internal_error and the status constants were defined here: re-exported
 from motion_pkg.motion_active_goals import ActiveGoalsMixin, _Active, _internal_error  # noqa: F401
+from motion_pkg.kinematics_geometry import ForwardKinematics
 from motion_pkg.motion_end_effector import EndEffectorMixin
+from motion_pkg.motion_interlock import CartInterlock
 from motion_pkg.motion_link import LinkMixin
 from motion_pkg.motion_moves import AxesMovesMixin
 from motion_pkg.motion_status import (LEVEL_NAMES, POLL_RATE_TOLERANCE,  # noqa: F401
@@ -62,9 +68,20 @@ class MotionServer(LinkMixin, ActiveGoalsMixin, AxesMovesMixin, EndEffectorMixin
             rospy.get_param('~register_map', '') or
             _package_file('motion_pkg', 'config', 'register_map.yaml'))
         # a bad robot.yaml: one fatal line naming file and field, exit 1 (nothing connects)
-        self.limits = mg.limits_from_robot_config(robot_config.load_or_exit(
+        robot = robot_config.load_or_exit(
             rospy.get_param('~robot_config', '') or
-            _package_file('harvest_description', 'config', 'robot.yaml'), rospy.logfatal))
+            _package_file('harvest_description', 'config', 'robot.yaml'), rospy.logfatal)
+        self.limits = mg.limits_from_robot_config(robot)
+        # the cart moves only with both arms stowed, no arm moves while the cart does
+        # (motion_interlock); false: no such check (a robot whose cart cannot reach the plants)
+        self.interlock = None
+        if rospy.get_param('~cart_interlock', True):
+            try:
+                self.interlock = CartInterlock(ForwardKinematics(robot),
+                                               rospy.get_param('~stowed_max_x', 0.20))
+            except (TypeError, ValueError) as exc:
+                rospy.logfatal('~stowed_max_x: %s', exc)          # one fatal line, exit 1
+                raise SystemExit(1)
         missing = [a for a in self.regmap.axis_names if a not in self.limits]
         if missing:
             raise ValueError('axes %s of the register map are not in robot.yaml' % missing)
