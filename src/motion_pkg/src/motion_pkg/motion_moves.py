@@ -221,7 +221,6 @@ class AxesMovesMixin(object):
                              for j in mg.ARM_JOINTS) for arm in mg.ARMS}
         why = self.interlock.move_base_refusal(joints, position.get('waist', 0.0), moving)
         if why:
-            rospy.logwarn('move_base refused: %s', why)
             raise mg.GoalError(why)
 
     def _check_arms_may_move(self):
@@ -232,7 +231,6 @@ class AxesMovesMixin(object):
             cart_moving = self._active.get('move_base') is not None
         why = move_robot_refusal(cart_moving)
         if why:
-            rospy.logwarn('move_robot refused: %s', why)
             raise mg.GoalError(why)
 
     def _feedback_move_base(self, handle, monitor, _state):
