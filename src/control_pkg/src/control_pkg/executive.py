@@ -26,7 +26,8 @@ ROOT (StateMachine)
         and a fruit it cannot reach is skipped before the suction arm moves)
         PLACE:     DO_MOVE_ROBOT (left arm home) -> DO_MOVE_ROBOT_BOX (right arm to the box)
                    -> DO_MOVE_ENDEFFECTOR (suction off)
-        RECOVER:   DO_MOVE_ENDEFFECTOR (suction off) -> DO_MOVE_ROBOT (left arm home, waist 0)
+        RECOVER:   DO_MOVE_ENDEFFECTOR (suction off) -> PARK_ARMS (DO_MOVE_ROBOT: left arm home,
+                   waist 0 -> DO_MOVE_ROBOT_BOX: right arm over the box)
       DO_ERROR                           halt every axis, record the reason; mission aborted
     ESTOP_MONITOR                        ends when an emergency stop is requested
   DO_STOP                                emergency stop: axes halted, mission paused until resume
@@ -311,16 +312,18 @@ class _Graph(object):
         return sm
 
     def recover(self):
+        """RECOVER: suction off, then the arms parked as a placed fruit leaves them: the left arm
+        home (and the waist back to 0 if the suction move turned it: the next scan sees the row
+        as the plan expects), the right arm over the box. The suction arm stayed by the fruit it
+        let go; parked, it is out of the plant when the cart moves on (motion_server's cart
+        interlock refuses the cart otherwise), and the next target starts like every other."""
         sm = smach.StateMachine(outcomes=['succeeded', 'aborted', 'preempted'])
         with sm:
             smach.StateMachine.add('DO_MOVE_ENDEFFECTOR',
                                    self.end_effector(EndEffectorGoal.SUCTION_OFF,
                                                      after=checkpoint_lib.PHASE_APPROACH),
-                                   transitions={'succeeded': 'DO_MOVE_ROBOT'})
-            # the left arm home, and the waist back to 0 if the suction move turned it (the
-            # next scan sees the row as the plan expects)
-            smach.StateMachine.add('DO_MOVE_ROBOT', self.move_fixed(
-                'DO_MOVE_ROBOT', ARM_LEFT, list(self.cfg['home']['left']) + [0.0]))
+                                   transitions={'succeeded': 'PARK_ARMS'})
+            smach.StateMachine.add('PARK_ARMS', self.park())
         return sm
 
 

@@ -42,7 +42,7 @@ PICK_TARGET (StateMachine)
                                          of this point while the left arm is still returning]
                           | not clear: DO_MOVE_ROBOT -> DO_MOVE_ROBOT_BOX -> DO_MOVE_ENDEFFECTOR
   LEAVE_STANDBY: the suction arm cannot reach its target: a cutting hand waiting by it goes home
-  RECOVER_*: as in the paper flow (the left arm home)
+  RECOVER_*: as in the paper flow (suction off, PARK_ARMS)
 
 The standby is what makes the pipelined cycle short: in the paper's flow the cutting hand goes
 home and back for every fruit (about 3.3 s each way, a 3 rad boom swing), on the critical path.

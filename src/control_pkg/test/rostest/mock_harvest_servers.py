@@ -30,6 +30,8 @@ at the mission while one state stays active; notes "hold_moves on|off" on mock/g
       mission's PARK_ARMS, two moves, before the right arm's first DO_MOVE_ROBOT).
 Serves get_checkpoint and get_mission_records (database_pkg's), notes every checkpoint on mock/goals
 ("checkpoint <phase> <holding> <finished>").
+move_base is refused (aborted, noted "move_base refused <point>") as motion_pkg's cart interlock
+refuses it: with an arm out of the cart's stowed space after its last finished move, or moving.
 Publishes mock/halt_count (std_msgs/Int32, latched), mock/goals (std_msgs/String: "<action> <detail>")
 and joint_states (the waist at 0, the arms at their home poses, then at the goal of every finished
 move).
@@ -77,6 +79,7 @@ class MockServers(object):
         self._halt_pub.publish(Int32(data=0))
         self._joints_pub = rospy.Publisher('joint_states', JointState, queue_size=10, latch=True)
         self.joints = {'waist_joint': 0.0}
+        self.interlock = cart_interlock()
         for arm, home in (('left', (0.0, 0.7854, 2.3562)), ('right', (0.0, -0.7854, -2.3562))):
             self.set_arm(arm, home)
         rospy.Service('halt_all', Trigger, self.halt)
@@ -108,7 +111,17 @@ class MockServers(object):
             server.start()
             self.servers.append(server)
 
-    def set_arm(self, arm, positions):
+    def cart_refusal(self):
+        """motion_pkg's cart interlock on the arms' last finished moves: why the cart may not
+        move ('' when it may)."""
+        moving = sorted(getattr(self, 'moving', {}))        # per-arm server's running goals
+        joints = {arm: tuple(self.joints['%s_%s_joint' % (arm, j)]
+                             for j in ('lift', 'boom', 'forearm')) for arm in ('left', 'right')}
+        return self.interlock.move_base_refusal(joints, self.joints['waist_joint'], moving)
+
+    def set_arm(self, arm, positions, waist=None):
+        if waist is not None:
+            self.joints['waist_joint'] = float(waist)
         self.joints.update(zip(['%s_%s_joint' % (arm, j) for j in ('lift', 'boom', 'forearm')],
                                positions))
         names = sorted(self.joints)
@@ -155,6 +168,11 @@ class MockServers(object):
         self.self_test_server.set_succeeded(StartResult(success=True, message='ok'))
 
     def move_base(self, goal):
+        why = self.cart_refusal()
+        if why:                     # as motion_pkg's motion_server refuses it
+            self.note('move_base refused %d' % goal.picking_point)
+            self.move_base_server.set_aborted(MoveBaseResult(success=False, message=why), why)
+            return
         self.point = goal.picking_point
         self.note('move_base %d' % goal.picking_point)
         self.move_base_server.set_succeeded(MoveBaseResult(success=True, track_position=0.6 * goal.picking_point))
@@ -239,7 +257,8 @@ class MockServers(object):
                 self.move_robot_server.set_preempted(MoveRobotResult(succeed=-3), 'preempted, axes halted')
                 return
             done.wait(0.01)
-        self.set_arm('left' if goal.arm else 'right', goal.target_joint.positions)
+        self.set_arm('left' if goal.arm else 'right', goal.target_joint.positions,
+                     goal.waist if goal.move_waist else None)
         self.move_robot_server.set_succeeded(MoveRobotResult(succeed=1))
 
     def start_per_arm_moves(self):
@@ -271,7 +290,7 @@ class MockServers(object):
             if self.moving.get(arm) is not handle:
                 return                    # cancelled
             del self.moving[arm]
-        self.set_arm(arm, goal.target_joint.positions)
+        self.set_arm(arm, goal.target_joint.positions, goal.waist if goal.move_waist else None)
         handle.set_succeeded(MoveRobotResult(succeed=1))
 
     def arm_cancel(self, handle):
@@ -297,6 +316,20 @@ class MockServers(object):
             return
         self.picked.add((self.point, int(spec.get('id', -1))))
         self.visual_servo_server.set_succeeded(VisualServoResult(success=True, iterations=3, final_error=0.001))
+
+
+def cart_interlock():
+    """motion_pkg's CartInterlock with robot.yaml's geometry and motion_server.yaml's limit."""
+    import os
+    import rospkg
+    import yaml
+    from motion_pkg.kinematics_geometry import ForwardKinematics
+    from motion_pkg.motion_interlock import CartInterlock
+    pack = rospkg.RosPack()
+    with open(os.path.join(pack.get_path('motion_pkg'), 'config', 'motion_server.yaml')) as f:
+        max_x = yaml.safe_load(f)['stowed_max_x']
+    return CartInterlock(ForwardKinematics.from_yaml(os.path.join(
+        pack.get_path('harvest_description'), 'config', 'robot.yaml')), max_x)
 
 
 def view_ray(point):
