@@ -17,7 +17,7 @@ Services:
 Published:
   /diagnostics (via diagnostic_updater): db path, size, schema, row counts, free disk, errors.
 Params (private): db_path, synchronous, site, queue_size, server_timeout, result_timeout,
-  target_frame, min_ripeness (see config/database.yaml).
+  ack_timeout, target_frame, min_ripeness (see config/database.yaml).
 """
 
 import os
@@ -100,13 +100,17 @@ class DatabaseNode(object):
         self._site = str(rospy.get_param('~site', ''))
         self._server_timeout = float(rospy.get_param('~server_timeout', 2.0))
         self._result_timeout = float(rospy.get_param('~result_timeout', 10.0))
+        self._ack_timeout = float(rospy.get_param('~ack_timeout', 2.0))
         self._target_frame = str(rospy.get_param('~target_frame', ''))
         self._min_ripeness = float(rospy.get_param('~min_ripeness', 0.0))
         queue_size = int(rospy.get_param('~queue_size', 1000))
         synchronous = str(rospy.get_param('~synchronous', 'FULL'))
-        if self._server_timeout <= 0.0 or self._result_timeout <= 0.0:
-            raise DatabaseNodeError('~server_timeout and ~result_timeout must be > 0 (got %g, %g)'
-                                    % (self._server_timeout, self._result_timeout))
+        if not (self._server_timeout > 0.0 and self._result_timeout > 0.0 and
+                self._ack_timeout > 0.0):
+            raise DatabaseNodeError('~server_timeout, ~result_timeout and ~ack_timeout must be '
+                                    '> 0 (got %g, %g, %g)' % (self._server_timeout,
+                                                              self._result_timeout,
+                                                              self._ack_timeout))
 
         directory = os.path.dirname(self._db_path)
         try:
@@ -268,6 +272,19 @@ class DatabaseNode(object):
         handle = self._ip.gh
         return handle is not None and handle.get_comm_state() == CommState.DONE
 
+    def _scan_unacknowledged(self, sent):
+        """True when image_processing has published goal statuses for ~ack_timeout (ROS time)
+        since the scan goal was sent at `sent` without ever listing it. The goal was lost on its
+        way: the server went down (a respawn) after wait_for_server, and its successor never
+        got it. actionlib's client only gives up on a goal the server has listed (LOST), so
+        this one would be waited for until ~result_timeout."""
+        handle = self._ip.gh
+        if handle is None or handle.get_comm_state() != CommState.WAITING_FOR_GOAL_ACK:
+            return False
+        status = self._ip.action_client.last_status_msg
+        return status is not None and \
+            (status.header.stamp - sent).to_sec() >= self._ack_timeout
+
     def _execute(self, goal):
         problem = convert.check_spatial_temporal_goal(goal)
         if problem:
@@ -286,13 +303,26 @@ class DatabaseNode(object):
             self._scan_token = token
             self._scan_done = False
         self._ip.send_goal(request, done_cb=self._on_scan_done(token))
-        deadline = rospy.get_rostime() + rospy.Duration(self._result_timeout)
+        sent = rospy.get_rostime()
+        deadline = sent + rospy.Duration(self._result_timeout)
+        sends = 1
         with self._cond:
             while not (self._scan_done or self._scan_handle_done() or self._stopping
                        or self._server.is_preempt_requested()
                        or rospy.get_rostime() >= deadline):
+                if self._scan_unacknowledged(sent):
+                    if sends == 2:
+                        break
+                    # sent again once: the new goal replaces the lost one in the client
+                    rospy.logwarn('spatial_temporal: %s did not acknowledge the scan goal '
+                                  'within %.1f s (its server restarted?): sending it again'
+                                  % (self._ip.action_client.ns, self._ack_timeout))
+                    self._ip.send_goal(request, done_cb=self._on_scan_done(token))
+                    sent = rospy.get_rostime()
+                    sends += 1
                 self._cond.wait(_WAIT_SLICE_S)
             done = self._scan_done or self._scan_handle_done()
+            unacknowledged = not done and self._scan_unacknowledged(sent)
             self._scan_token = None
         if not done:
             self._ip.cancel_goal()
@@ -300,6 +330,9 @@ class DatabaseNode(object):
                 self._server.set_preempted(
                     SpatialTemporalResult(success=False, stored=0, message='preempted'),
                     'preempted')
+            elif unacknowledged:
+                self._abort('%s did not acknowledge the scan goal, sent twice, within %.1f s '
+                            'each' % (self._ip.action_client.ns, self._ack_timeout))
             else:
                 self._abort('%s gave no result within %.1f s'
                             % (self._ip.action_client.ns, self._result_timeout))
@@ -309,7 +342,9 @@ class DatabaseNode(object):
         scan = self._ip.get_result()
         if state != GoalStatus.SUCCEEDED or scan is None or not scan.success:
             detail = scan.message if scan is not None and scan.message else \
-                self._ip.get_goal_status_text()
+                self._ip.get_goal_status_text() or (
+                    'its server no longer lists the goal (restarted?)'
+                    if state == GoalStatus.LOST else 'no reason given')
             self._abort('%s scan failed (goal %s): %s'
                         % (self._ip.action_client.ns, _status_name(state), detail))
             return
