@@ -114,7 +114,10 @@ class MockServers(object):
     def cart_refusal(self):
         """motion_pkg's cart interlock on the arms' last finished moves: why the cart may not
         move ('' when it may)."""
-        moving = sorted(getattr(self, 'moving', {}))        # per-arm server's running goals
+        moving = []
+        if self.per_arm_moves:                      # the per-arm server's running goals
+            with self.moves_lock:
+                moving = sorted(self.moving)
         joints = {arm: tuple(self.joints['%s_%s_joint' % (arm, j)]
                              for j in ('lift', 'boom', 'forearm')) for arm in ('left', 'right')}
         return self.interlock.move_base_refusal(joints, self.joints['waist_joint'], moving)
