@@ -44,6 +44,8 @@ def test_overrides_merge_one_level_deep():
     ({'relocate_radius_tolerance': 1.5}, 'relocate_radius_tolerance'),
     ({'schedule': 'fast'}, 'schedule'),
     ({'overlap_margin': -0.01}, 'overlap_margin'),
+    ({'cart_wait': math.nan}, 'cart_wait'),
+    ({'cart_wait': -1.0}, 'cart_wait'),
 ])
 def test_bad_overrides_are_refused_naming_the_field(overrides, field):
     with pytest.raises(ValueError, match=field):

@@ -132,3 +132,17 @@ def test_a_smaller_held_fruit_corrects_the_depth_along_the_view_ray_only():
     assert goals.relocate(held, [bigger], 0.03, viewpoint=eye).why == 'moved'
     # an eye at the fruit gives no ray: as without one
     assert goals.relocate(held, [seen], 0.03, viewpoint=first).why == 'smaller'
+
+
+def test_running_goals_of_a_status_array():
+    """WAIT_CART reads the move_base server's statuses: pending, active and being cancelled
+    goals run; finished ones, whoever sent them, do not."""
+    from actionlib_msgs.msg import GoalID, GoalStatusArray
+    array = GoalStatusArray(status_list=[
+        GoalStatus(goal_id=GoalID(id=name), status=status) for name, status in (
+            ('done', GoalStatus.SUCCEEDED), ('moving', GoalStatus.ACTIVE),
+            ('queued', GoalStatus.PENDING), ('stopping', GoalStatus.PREEMPTING),
+            ('halted', GoalStatus.ABORTED), ('cancelled', GoalStatus.PREEMPTED),
+            ('recalling', GoalStatus.RECALLING), ('lost', GoalStatus.LOST))])
+    assert goals.running_goals(array) == ['moving', 'queued', 'stopping', 'recalling']
+    assert goals.running_goals(GoalStatusArray()) == []

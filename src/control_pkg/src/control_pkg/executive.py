@@ -6,6 +6,7 @@ SimpleActionState; the ten state labels of the paper name the states:
 ROOT (StateMachine)
   RUN (Concurrence)                      the mission, watched by the emergency-stop monitor
     MISSION (StateMachine)
+      WAIT_CART                          a cart move still running (not this mission's) ends first
       DO_START                           Start.action: self-test of every component
       PARK_ARMS                          left arm home, right arm over the box (DO_MOVE_ROBOT)
       NEXT_POINT                         next picking point of the plan, or mission complete
@@ -49,9 +50,9 @@ from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import executive_goals as goals
 from control_pkg import mission as mission_lib
 from control_pkg.executive_callbacks import _Callbacks
-from control_pkg.executive_states import (HarvestActionState, NextPoint, NextTarget, ChoosePull,
-                                          EndFruit, DoError, EstopMonitor, DoStop, Decide,
-                                          ResumeRecord)
+from control_pkg.executive_states import (CartAtRest, HarvestActionState, NextPoint, NextTarget,
+                                          ChoosePull, EndFruit, DoError, EstopMonitor, DoStop,
+                                          Decide, ResumeRecord)
 
 ARM_RIGHT = goals.ARM_RIGHT
 ARM_LEFT = goals.ARM_LEFT
@@ -164,6 +165,11 @@ class _Graph(object):
         sm.userdata.target = None
         add = smach.StateMachine.add
         with sm:
+            # no arm moves while the cart does: a cart move still running (a restarted task
+            # planner's predecessor's, a manual one) ends before the first arm goal
+            add('WAIT_CART', CartAtRest(c, self.cfg['actions']['move_base'] + '/status',
+                                        self.cfg['cart_wait']),
+                transitions={'at_rest': 'RESUME_CHECK', 'error': 'DO_ERROR'})
             # a restarted task planner continuing a mission makes the robot safe first
             add('RESUME_CHECK', Decide(cb.resume_check, ['resume', 'start']),
                 transitions={'resume': 'RESUME', 'start': 'DO_START'})

@@ -58,7 +58,7 @@ def merged_config(overrides, defaults=None):
     if not isinstance(watched, (list, tuple)) or not all(isinstance(n, str) and n for n in watched):
         raise ValueError('watched_nodes must be a list of node names, got %r' % (watched,))
     for key in ('pull_clearance', 'cut_clearance', 'resume_skip_tolerance', 'checkpoint_wait',
-                'node_watch_period', 'standby_standoff'):
+                'node_watch_period', 'standby_standoff', 'cart_wait'):
         if not isinstance(cfg[key], (int, float)) or not math.isfinite(float(cfg[key])) or cfg[key] < 0:
             raise ValueError('%s must be a finite number >= 0, got %r' % (key, cfg[key]))
     if cfg['schedule'] not in mission_lib.SCHEDULES:

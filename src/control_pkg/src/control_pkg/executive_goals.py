@@ -143,6 +143,17 @@ def held_scan_goal(frame):
 
 
 # --- results -----------------------------------------------------------------------------------
+#: goal states of an action server that has not finished the goal yet
+RUNNING_STATES = (GoalStatus.PENDING, GoalStatus.ACTIVE, GoalStatus.PREEMPTING,
+                  GoalStatus.RECALLING)
+
+
+def running_goals(status_array):
+    """The ids of the goals an action server's status message (actionlib_msgs/GoalStatusArray)
+    lists as not finished yet, whoever sent them."""
+    return [s.goal_id.id for s in status_array.status_list if s.status in RUNNING_STATES]
+
+
 def succeeded(status):
     return status == GoalStatus.SUCCEEDED
 

@@ -1,14 +1,97 @@
-"""The executive's own states of the plan's steps (see executive.py): NEXT_POINT, NEXT_TARGET,
-CHOOSE_PULL, the decisions between branches (Decide) and END_* (EndFruit, end_fruit).
+"""The executive's own states of the plan's steps (see executive.py): WAIT_CART, NEXT_POINT,
+NEXT_TARGET, CHOOSE_PULL, the decisions between branches (Decide) and END_* (EndFruit, end_fruit).
 
 Each takes the mission's shared object (executive_states.MissionContext). A state's outcomes and
 keys are documented in its docstring as ``Outcomes: ...`` / ``Input keys: ...`` /
 ``Output keys: ...``. Re-exported by control_pkg.executive_states.
 """
+import threading
+
 import rospy
+from actionlib_msgs.msg import GoalStatusArray
 
 from control_pkg.smach_compat import smach
+from control_pkg import executive_goals as goals
 from control_pkg import mission as mission_lib
+from control_pkg import ros_alarms
+
+
+class CartAtRest(smach.State):
+    """WAIT_CART: wait until the cart is at rest, before the mission's first arm move.
+
+    motion_pkg's cart interlock refuses an arm move while the cart moves. A cart move can still
+    be running when a mission starts: a restarted task planner's predecessor sent it (the goal
+    runs on in motion_server), or the dashboard's manual panel did. This state waits until the
+    move_base server's goal statuses (`status_topic`) list no running goal, whoever sent it.
+    No status within `status_wait` (ROS time; the server is not up): go on (DO_START's self-test
+    finds a missing server). Still moving after `timeout` (0: no limit): error.
+
+    Outcomes: at_rest, error, preempted (an emergency stop)
+    """
+
+    def __init__(self, context, status_topic, timeout, status_wait=2.0):
+        smach.State.__init__(self, outcomes=['at_rest', 'error', 'preempted'])
+        self._context = context
+        self._timeout = float(timeout)
+        self._status_wait = float(status_wait)
+        self._cond = threading.Condition()
+        self._running = None            # goal ids of the latest status; None: none came yet
+        self._expired = None
+        self._sub = rospy.Subscriber(status_topic, GoalStatusArray, self._on_status,
+                                     queue_size=1)
+
+    def _on_status(self, msg):
+        running = goals.running_goals(msg)
+        with self._cond:
+            self._running = running
+            self._cond.notify_all()
+
+    def _alarm(self, which):
+        def fire(_event):
+            with self._cond:
+                if self._expired is None:
+                    self._expired = which
+                self._cond.notify_all()
+        return fire
+
+    def request_preempt(self):
+        smach.State.request_preempt(self)
+        with self._cond:
+            self._cond.notify_all()
+
+    def execute(self, ud):
+        with self._cond:
+            self._expired = None
+        alarms = [ros_alarms.call_after(rospy.Duration.from_sec(self._status_wait),
+                                        self._alarm('status'))]
+        if self._timeout > 0.0:
+            alarms.append(ros_alarms.call_after(rospy.Duration.from_sec(self._timeout),
+                                                self._alarm('timeout')))
+        logged = False
+        try:
+            with self._cond:
+                while not rospy.is_shutdown() and not self.preempt_requested():
+                    if self._running == []:
+                        return 'at_rest'
+                    if self._running is None and self._expired is not None:
+                        rospy.logwarn('executive: no status of the move_base server within '
+                                      '%.1f s; going on', self._status_wait)
+                        return 'at_rest'
+                    if self._expired == 'timeout':
+                        self._context.fail('WAIT_CART: the cart still moves after %.0f s (a '
+                                           'move_base goal is running: %s)' % (
+                                               self._timeout, ', '.join(self._running)))
+                        return 'error'
+                    if self._running and not logged:
+                        logged = True
+                        rospy.loginfo('executive: the cart is moving (a move_base goal of '
+                                      'another client); the arms wait until it stops')
+                    self._cond.wait(0.5)
+        finally:
+            for alarm in alarms:
+                alarm.shutdown()
+        self.service_preempt()
+        return 'preempted'
 
 
 class NextPoint(smach.State):

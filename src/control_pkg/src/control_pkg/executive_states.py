@@ -22,7 +22,7 @@ from motion_pkg.motion_goals import ESTOP_HALT_TEXT
 from control_pkg import checkpoint as checkpoint_lib
 from control_pkg import mission as mission_lib
 from control_pkg.executive_plan_states import (  # noqa: F401 - re-exported
-    NextPoint, NextTarget, ChoosePull, Decide, EndFruit, end_fruit)
+    CartAtRest, NextPoint, NextTarget, ChoosePull, Decide, EndFruit, end_fruit)
 from control_pkg.executive_stop_states import (  # noqa: F401 - re-exported
     DoError, EstopMonitor, clear_preempts, DoStop, ResumeRecord)
 

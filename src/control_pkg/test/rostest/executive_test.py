@@ -181,6 +181,37 @@ class ExecutiveTest(unittest.TestCase):
         self.assertEqual(before, ['move_robot left', 'move_robot right'], w.goals)
         self.assertEqual(s['picked'], 1, s)          # the target at point 1 is not in the plan
 
+    def check_cart_busy(self):
+        """A cart move of another client (a manual one, or a restarted task planner's
+        predecessor's) is running when the mission starts: WAIT_CART holds the first arm goal
+        until it ends (motion_server would refuse the goal: the mock does too)."""
+        import actionlib
+        from harvest_msgs.msg import MoveBaseAction, MoveBaseGoal
+        w = self.w
+        self.assertTrue(w.wait(lambda: w.goals_sub.get_num_connections() > 0),
+                        'mock/goals never connected')
+        other = actionlib.SimpleActionClient('move_base', MoveBaseAction)
+        self.assertTrue(other.wait_for_server(rospy.Duration(WAIT)))
+        other.send_goal(MoveBaseGoal(picking_point=1))
+        self.assertTrue(w.wait(lambda: 'move_base held 1' in w.goals), w.goals)
+        stop = rospy.Publisher('mock/cart_stop', Bool, queue_size=1, latch=True)
+        rospy.wait_for_service('task_planner/start', timeout=WAIT)
+        resp = rospy.ServiceProxy('task_planner/start', Trigger)()
+        self.assertTrue(resp.success, resp.message)
+        mission = '/SM_ROOT/RUN/MISSION'
+        self.assertTrue(w.wait(lambda: 'WAIT_CART' in w.active.get(mission, [])),
+                        'WAIT_CART never active: %s' % w.active.get(mission))
+        self.assertEqual([g for g in w.goals if g.startswith('move_robot')], [], w.goals)
+        stop.publish(Bool(data=True))
+        self.assertTrue(w.wait(lambda: w.summary is not None), 'no mission summary')
+        self.assertEqual(w.summary['outcome'], 'succeeded', w.summary)
+        self.assertEqual(w.summary['picked'], 1, w.summary)
+        moves = [g for g in w.goals if g.startswith('move_robot') or g.startswith('move_base')]
+        self.assertNotIn('move_robot refused', moves)
+        first_arm = next(i for i, g in enumerate(moves) if g.startswith('move_robot'))
+        self.assertLess(moves.index('move_base stopped'), first_arm, moves)
+        self.assertTrue(other.wait_for_result(rospy.Duration(WAIT)))
+
     def check_cut_check(self):
         w = self.w
         s = self.start_and_finish()

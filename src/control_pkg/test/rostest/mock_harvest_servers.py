@@ -31,7 +31,11 @@ at the mission while one state stays active; notes "hold_moves on|off" on mock/g
 Serves get_checkpoint and get_mission_records (database_pkg's), notes every checkpoint on mock/goals
 ("checkpoint <phase> <holding> <finished>").
 move_base is refused (aborted, noted "move_base refused <point>") as motion_pkg's cart interlock
-refuses it: with an arm out of the cart's stowed space after its last finished move, or moving.
+refuses it: with an arm out of the cart's stowed space after its last finished move, or moving;
+and a MoveRobot goal while a move_base goal runs (noted "move_robot refused").
+  ~hold_cart (bool, false): the first move_base goal (a test's, as another client's: a manual cart
+      move, or a restarted task planner's predecessor's) runs until mock/cart_stop (std_msgs/Bool
+      true) comes; noted "move_base held <point>", then "move_base stopped".
 Publishes mock/halt_count (std_msgs/Int32, latched), mock/goals (std_msgs/String: "<action> <detail>")
 and joint_states (the waist at 0, the arms at their home poses, then at the goal of every finished
 move).
@@ -90,6 +94,10 @@ class MockServers(object):
         self.holding = False
         self.hold_after = int(rospy.get_param('~hold_after_moves', 0))
         self.hold_pass = 0            # moves the hold still lets through
+        self.hold_cart = bool(rospy.get_param('~hold_cart', False))
+        self.cart_held = False
+        self.cart_stopped = False
+        rospy.Subscriber('mock/cart_stop', Bool, self.on_cart_stop, queue_size=1)
         rospy.Subscriber('mock/hold_moves', Bool, self.on_hold, queue_size=10)
         rospy.Service('get_checkpoint', GetCheckpoint, self.get_checkpoint)
         rospy.Service('get_mission_records', GetMissionRecords, self.get_records)
@@ -176,6 +184,17 @@ class MockServers(object):
             self.note('move_base refused %d' % goal.picking_point)
             self.move_base_server.set_aborted(MoveBaseResult(success=False, message=why), why)
             return
+        with self.hold:
+            held = self.hold_cart and not self.cart_held
+            self.cart_held = self.cart_held or held
+        if held:                    # the first goal runs until mock/cart_stop
+            self.note('move_base held %d' % goal.picking_point)
+            with self.hold:
+                while not self.cart_stopped and not rospy.is_shutdown():
+                    self.hold.wait(0.05)
+            self.note('move_base stopped')
+            self.move_base_server.set_succeeded(MoveBaseResult(success=True, track_position=0.0))
+            return
         self.point = goal.picking_point
         self.note('move_base %d' % goal.picking_point)
         self.move_base_server.set_succeeded(MoveBaseResult(success=True, track_position=0.6 * goal.picking_point))
@@ -233,6 +252,11 @@ class MockServers(object):
             result.joint_goal.positions = [0.1, 0.2, 0.3]
         self.kinematics_server.set_succeeded(result)
 
+    def on_cart_stop(self, msg):
+        with self.hold:
+            self.cart_stopped = self.cart_stopped or msg.data
+            self.hold.notify_all()
+
     def on_hold(self, msg):
         with self.hold:
             if msg.data and not self.holding:
@@ -241,7 +265,19 @@ class MockServers(object):
             self.hold.notify_all()
         self.note('hold_moves %s' % ('on' if msg.data else 'off'))
 
+    def arms_refusal(self):
+        """motion_pkg's cart interlock: no arm moves while a move_base goal runs."""
+        server = getattr(self, 'move_base_server', None)        # none: ~missing
+        if server is not None and server.is_active():
+            return 'no arm moves while the cart does (a move_base goal is running)'
+        return ''
+
     def move_robot(self, goal):
+        why = self.arms_refusal()
+        if why:
+            self.note('move_robot refused')
+            self.move_robot_server.set_aborted(MoveRobotResult(succeed=-1), why)
+            return
         self.note('move_robot %s' % ('left' if goal.arm else 'right'))
         with self.hold:
             passed = self.holding and self.hold_pass > 0
@@ -274,6 +310,11 @@ class MockServers(object):
     def arm_goal(self, handle):
         goal = handle.get_goal()
         arm = 'left' if goal.arm else 'right'
+        why = self.arms_refusal()
+        if why:
+            self.note('move_robot refused')
+            handle.set_rejected(MoveRobotResult(succeed=-1), why)
+            return
         with self.moves_lock:
             if arm in self.moving:
                 handle.set_rejected(MoveRobotResult(succeed=-6), 'the %s arm is moving' % arm)
