@@ -95,32 +95,16 @@ for t in "${PYTEST_TARGETS[@]}"; do
 done
 PYTEST_TARGETS=("${ORDERED[@]}")
 
-# The rostests of the small packages run at the end of the pytest lane, not in the rostest lane:
-# that lane had become the longest chain (twenty-third session, fresh clone: rostest lane 400 s of
-# test time, whole-mission lane 367 s, pytest lane 290 s; these five packages' rostests 81 s)
-LATE_PKGS=(cooperation_pkg vision_pkg network_pkg harvest_sim database_pkg)
-LATE_ROSTESTS=()
-KEPT=()
-for t in "${ROSTEST_TARGETS[@]}"; do
-  late=""
-  for pkg in "${LATE_PKGS[@]}"; do
-    case "$t" in "run_tests_${pkg}_"*) late=1;; esac
-  done
-  if [ -n "$late" ]; then LATE_ROSTESTS+=("$t"); else KEPT+=("$t"); fi
-done
-ROSTEST_TARGETS=("${KEPT[@]}")
-
-echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the other packages' rostests, and every package's pytest then the small packages' rostests"
-# Three lanes, plain make in the build directory catkin_make configured (tools/setup.sh); two
+echo "=== whole-mission rostests (${MISSION_TARGETS[*]#run_tests_}), beside: the other packages' rostests, then every package's pytest"
+# Two lanes, plain make in the build directory catkin_make configured (tools/setup.sh); two
 # catkin_make at once race on build/catkin_make.cache and both run cmake in the same directory.
 # Lane 1: the whole-mission rostests of harvest_bringup, one at a time (made to be as correct on a
 # busy machine as on a quiet one; two at a time each took 1.7x as long), from the start: they are
 # the longest chain. Lane 2: the other packages' rostests (every rostest has its own master on a
 # free port, each test file that runs a simulated controller its own Modbus port, the Xvfb tests
 # a free display). Lane 3, also from the start: every package's pytest target (pure logic, no
-# master), one make process per target (make_each), the longest first, then the rostests of
-# LATE_PKGS; the rostests mostly wait on mock servers and timers, so the pytests fill the CPU they
-# leave. CMake's top-level
+# master), one make process per target (make_each), the longest first; the rostests mostly
+# wait on mock servers and timers, so the pytests fill the CPU they leave. CMake's top-level
 # Makefile is .NOTPARALLEL: one make given several goals runs them one after another whatever
 # its -j, so the rostests' -j3 below runs them one at a time (parallel rostests not tried).
 # every run_tests target depends on `tests` (the gtest binaries): built once here, before the lanes,
@@ -143,8 +127,8 @@ make_each() {
 }
 make -C "$ROOT/build" "${MISSION_TARGETS[@]}" -j1 > "$RESULTS/mission.log" 2>&1 &
 MISSION_PID=$!
-echo "=== pytest (pure logic, no ROS master), from the start, one target at a time: ${PYTEST_TARGETS[*]#run_tests_}; then ${LATE_ROSTESTS[*]#run_tests_}"
-make_each 1 "$RESULTS/pytest.log" "${PYTEST_TARGETS[@]}" "${LATE_ROSTESTS[@]}" &
+echo "=== pytest (pure logic, no ROS master), from the start, one target at a time: ${PYTEST_TARGETS[*]#run_tests_}"
+make_each 1 "$RESULTS/pytest.log" "${PYTEST_TARGETS[@]}" &
 PYTEST_PID=$!
 if ! make -C "$ROOT/build" "${ROSTEST_TARGETS[@]}" -j3 > "$RESULTS/rostest.log" 2>&1; then
   tail -80 "$RESULTS/rostest.log"; FAILED_STEPS+=(rostest-build)
