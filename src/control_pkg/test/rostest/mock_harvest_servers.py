@@ -267,10 +267,9 @@ class MockServers(object):
 
     def arms_refusal(self):
         """motion_pkg's cart interlock: no arm moves while a move_base goal runs."""
+        from motion_pkg.motion_interlock import move_robot_refusal
         server = getattr(self, 'move_base_server', None)        # none: ~missing
-        if server is not None and server.is_active():
-            return 'no arm moves while the cart does (a move_base goal is running)'
-        return ''
+        return move_robot_refusal(server is not None and server.is_active())
 
     def move_robot(self, goal):
         why = self.arms_refusal()
