@@ -36,10 +36,14 @@ and a MoveRobot goal while a move_base goal runs (noted "move_robot refused").
   ~hold_cart (bool, false): the first move_base goal (a test's, as another client's: a manual cart
       move, or a restarted task planner's predecessor's) runs until mock/cart_stop (std_msgs/Bool
       true) comes; noted "move_base held <point>", then "move_base stopped".
+Notes "summary <outcome>" on mock/goals for every mission/summary it hears: on the one ordered
+connection of mock/goals, a test that has seen it has seen every goal of that mission (the
+summary itself comes from another node, on a connection of its own).
 Publishes mock/halt_count (std_msgs/Int32, latched), mock/goals (std_msgs/String: "<action> <detail>")
 and joint_states (the waist at 0, the arms at their home poses, then at the goal of every finished
 move).
 """
+import json
 import threading
 
 import actionlib
@@ -90,6 +94,7 @@ class MockServers(object):
         self.checkpoint = rospy.get_param('~checkpoint', None)
         self.records = rospy.get_param('~records', [])
         rospy.Subscriber('mission/checkpoints', Checkpoint, self.on_checkpoint, queue_size=100)
+        rospy.Subscriber('mission/summary', String, self.on_summary, queue_size=10)
         self.hold = threading.Condition()
         self.holding = False
         self.hold_after = int(rospy.get_param('~hold_after_moves', 0))
@@ -142,6 +147,13 @@ class MockServers(object):
         self.note('checkpoint %s %d %d' % (msg.phase or '-', msg.holding, msg.finished))
         if msg.finished and self.checkpoint and msg.mission_id == self.checkpoint['mission_id']:
             self.checkpoint = None
+
+    def on_summary(self, msg):
+        try:
+            outcome = json.loads(msg.data).get('outcome', '?')
+        except ValueError:
+            outcome = 'unreadable'
+        self.note('summary %s' % outcome)
 
     def get_checkpoint(self, req):
         c = self.checkpoint
