@@ -172,6 +172,67 @@ def test_late_stamped_cut_is_judged_where_the_arm_was_at_its_stamp():
     assert _nothing(world.shear_cut(stamp=20.05))
 
 
+def _held_and_servoed(world, stamp):
+    """f0 sealed and drawn out 3 cm, the shear on its peduncle from `stamp` (s) on; the
+    suction arm's joints there."""
+    joints, rj = suction_at(F0)
+    world.set_joints(joints, stamp=stamp - 1.0)
+    world.set_valve(True)
+    assert world.held is world.fruits[0]
+    joints, rj = suction_at(F0 + [-0.03, 0.0, 0.0])
+    world.set_joints(joints, stamp=stamp - 0.5)
+    there, _ = arm('left', world.fruits[0].peduncle + [0.003, 0.0, 0.0], other=rj)
+    world.set_joints(there, stamp=stamp)
+    return rj
+
+
+def test_a_close_that_comes_after_the_tearing_pull_still_cuts_the_fruit():
+    # the cut done, the suction arm carries the fruit to the box at once; that move's joint
+    # states overtook the shear close: the world tears the fruit off, then hears the close,
+    # stamped before the tear
+    world = make_world(tear_distance=0.12)
+    f0, f1 = world.fruits
+    _held_and_servoed(world, 20.0)
+    to_box, _ = arm('right', (0.2, -0.45, 0.85))
+    events = world.set_joints(to_box, stamp=20.2)
+    assert f0.state == w.DAMAGED and not f0.attached, events     # as far as the world knows yet
+    events = world.shear_cut(stamp=20.05)
+    assert f0.state == w.HARVESTED and not f0.attached, events
+    assert 'not torn' in events[0], events
+    assert np.allclose(f0.cut_point, F0 + [-0.03, 0.0, R + 0.01], atol=1e-3)
+    assert f1.state == w.HANGING
+    world.set_valve(False, stamp=21.0)
+    c = world.summary()
+    assert (c['collected'], c['damaged']) == (1, 0), c
+
+
+def test_a_late_close_that_cuts_nothing_leaves_the_fruit_torn():
+    world = make_world(tear_distance=0.12)
+    f0 = world.fruits[0]
+    rj = _held_and_servoed(world, 20.0)
+    away, _ = arm('left', (0.3, 0.3, 1.0), other=rj)
+    world.set_joints(away, stamp=20.02)                 # the shear left before it closed
+    to_box, _ = arm('right', (0.2, -0.45, 0.85))
+    world.set_joints(to_box, stamp=20.2)
+    events = world.shear_cut(stamp=20.1)
+    assert 'not torn' in events[0] and _nothing(events[1:]), events
+    assert f0.attached and f0.state == w.HELD            # until the next joint state
+    events = world.set_joints(to_box, stamp=20.3)
+    assert f0.state == w.DAMAGED and not f0.attached and 'torn off' in events[0], events
+
+
+def test_a_close_stamped_after_the_tear_does_not_undo_it():
+    world = make_world(tear_distance=0.12)
+    f0 = world.fruits[0]
+    _held_and_servoed(world, 20.0)
+    to_box, _ = arm('right', (0.2, -0.45, 0.85))
+    world.set_joints(to_box, stamp=20.2)
+    world.set_joints(to_box, stamp=20.4)
+    events = world.shear_cut(stamp=20.3)
+    assert f0.state == w.DAMAGED and not f0.attached, events
+    assert not any('not torn' in e for e in events), events
+
+
 def test_a_valve_opened_after_the_move_seals_only_with_a_pose_from_after_it():
     # the approach to f1 swept past f0; the valve's message (opened at 10.0, once the arm was at
     # f1) overtook the move's last joint states: the cup seals f1, never the neighbour it passed

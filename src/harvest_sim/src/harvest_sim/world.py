@@ -41,6 +41,14 @@ once, the move's joint states can reach the world before the closing. The contro
 valve's changes (set_valve's `stamp`), so a closing stamped before the joint state that tore the
 held fruit off undoes that tear: the fruit was let go still on its pedicel and springs back onto
 the plant (a restarted task planner releases the fruit it was pulling and takes the arms home).
+
+A shear close has it too: the cut done, the suction arm carries the fruit to the box at once, and
+the joint states of that move can reach the world before the close. A close stamped before the
+joint state that tore the held fruit off undoes that tear before it is judged: the fruit was
+still on its pedicel where the shear closed. (Without it, the shear was judged to close on
+nothing where that peduncle had been, or inside an unripe neighbour beside it: a fresh-clone
+`make test` once failed so.) A close that then cuts nothing leaves the fruit to be torn again
+by the next joint state.
 """
 
 import collections
@@ -217,6 +225,7 @@ class World(object):
         """A shear close at `stamp`: where the tools were at the last joint state stamped at or
         before it when that reaches a peduncle, else at the first one after it (the latest pose
         when the history holds none before it)."""
+        events = self._undo_tear_before(stamp, 'the shear closed')
         before = after = None
         for t, tip, suction in self.tool_history:
             if t <= stamp:
@@ -225,10 +234,25 @@ class World(object):
                 after = (tip, suction)
                 break
         if before is None:
-            return self._cut()
+            return events + self._cut()
         if after is None or self._reaches_peduncle(*before):
-            return self._cut(*before)
-        return self._cut(*after)
+            return events + self._cut(*before)
+        return events + self._cut(*after)
+
+    def _undo_tear_before(self, stamp, what):
+        """Undo the held fruit's tear when `what` happened at `stamp`, before the joint state
+        that tore it off (their messages came in the other order): the fruit is on its pedicel
+        again, in the state it had. Events (empty when there was no such tear)."""
+        torn, f = self.torn, self.held
+        if (torn is None or stamp is None or torn[0] is None or f is None or
+                float(stamp) >= torn[0] or f.attached or f.cut_point is not None):
+            return []
+        self.torn = None
+        f.attached, f.state = True, torn[1]
+        self.version += 1
+        self.state_version += 1
+        return ['%s: %s at %.3f s, before the pull that tore it off (%.3f s): not torn'
+                % (f.id, what, float(stamp), torn[0])]
 
     def _reaches_peduncle(self, tip, suction):
         """A fruit's peduncle (the held one where `suction` puts it) within the shear's reach."""
@@ -326,19 +350,19 @@ class World(object):
         f = self.held
         if f is None:
             return []
-        torn, self.torn = self.torn, None
-        self.held, self.hold_offset = None, None
-        self.version += 1
-        self.state_version += 1
-        if (torn is not None and stamp is not None and torn[0] is not None and
-                float(stamp) < torn[0] and not f.attached and f.cut_point is None):
+        torn = self.torn
+        if self._undo_tear_before(stamp, 'valve closed'):
             # the closing came after the joint state that tore the fruit off, stamped before it
-            f.attached, f.state = True, torn[1]
+            self.held, self.hold_offset = None, None
             f.position = f.fruit.position.copy()
             if f.state == HELD:
                 f.state = HANGING
             return ['%s released uncut before the pull that tore it off (valve closed at %.3f s, '
                     'tear at %.3f s): back on the plant, not torn' % (f.id, float(stamp), torn[0])]
+        self.torn = None
+        self.held, self.hold_offset = None, None
+        self.version += 1
+        self.state_version += 1
         if f.state == HARVESTED:
             f.state = COLLECTED
             return ['%s collected (released at %s)' % (f.id, np.round(f.position, 3).tolist())]
