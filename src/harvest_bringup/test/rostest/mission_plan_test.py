@@ -130,6 +130,8 @@ class MissionPlanTest(unittest.TestCase):
         self.assertTrue(w.wait(lambda: w.summary is not None, 600.0), 'no mission summary')
         s = w.summary
         self.assertEqual(s['outcome'], 'succeeded', s)
+        # the points come as mission events, on a connection of their own
+        w.wait(lambda: len(w.points) >= len(planned), 10.0)
         self.assertEqual(w.points, planned, 'picking points visited')
         self.assertEqual(s['points_visited'], len(planned), s)
 

@@ -224,17 +224,29 @@ class MissionTest(unittest.TestCase):
         again within its node_watch_period), published and stored."""
         self.assertTrue(w.wait(lambda: all(n in w.restarts for n in names), 60.0),
                         'restart events %s, expected %s' % (w.restarts, names))
+        resp = self.stored(s, lambda r: all(n in [e.state for e in r.events if e.kind == 'restart']
+                                            for n in names))
+        stored = [e.state for e in resp.events if e.kind == 'restart']
+        self.assertTrue(all(n in stored for n in names), 'stored restart events %s' % stored)
+
+    def stored(self, s, ready, timeout=30.0):
+        """get_mission_records of the mission once `ready(response)` holds, or its last answer
+        after `timeout` s (ROS time). The database stores the records and events as it hears
+        them, each topic on a connection of its own, so the last ones may be stored a step
+        after the summary came here."""
         rospy.wait_for_service('/get_mission_records', timeout=30.0)
         get = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)
-        stored = []
-        for _ in range(60):              # the store may be a step behind the topic
+        deadline = rospy.get_time() + timeout
+        while True:
             resp = get(mission_id=s['mission_id'])
             self.assertTrue(resp.success, resp.message)
-            stored = [e.state for e in resp.events if e.kind == 'restart']
-            if all(n in stored for n in names):
-                break
-            rospy.sleep(0.5)
-        self.assertTrue(all(n in stored for n in names), 'stored restart events %s' % stored)
+            if ready(resp) or rospy.get_time() >= deadline or rospy.is_shutdown():
+                return resp
+            rospy.sleep(0.2)
+
+    @staticmethod
+    def picked_count(resp):
+        return sum(1 for r in resp.records if r.outcome == PickRecord.OUTCOME_PICKED)
 
     def kill_executive(self, w, label):
         self.assertTrue(w.wait(lambda: w.active.get(RIGHT_ARM) == [label], 300.0),
@@ -254,9 +266,8 @@ class MissionTest(unittest.TestCase):
     def check_records(self, s, truth):
         """The store holds every record of the mission once: as many picked as fruit in the
         box, no two at one place."""
-        rospy.wait_for_service('/get_mission_records', timeout=30.0)
-        resp = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)(mission_id=s['mission_id'])
-        self.assertTrue(resp.success, resp.message)
+        resp = self.stored(s, lambda r: len(r.records) >= s['attempted'] and
+                           any(e.kind == 'summary' for e in r.events))
         picked = [r for r in resp.records if r.outcome == PickRecord.OUTCOME_PICKED]
         self.assertEqual(len(picked), truth.collected, [(r.target_id, r.outcome, r.reason) for r in resp.records])
         self.assertEqual(len(resp.records), s['attempted'], 'records of the summary not all stored')
@@ -321,9 +332,7 @@ class MissionTest(unittest.TestCase):
         """One `fault` event and one `resume` of DO_ERROR; the picked records agree with the
         world, and no fruit is picked twice (the fruit DO_ERROR interrupted has a failed record
         and, tried again, a picked one)."""
-        rospy.wait_for_service('/get_mission_records', timeout=30.0)
-        resp = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)(mission_id=s['mission_id'])
-        self.assertTrue(resp.success, resp.message)
+        resp = self.stored(s, lambda r: self.picked_count(r) >= truth.collected)
         kinds = [(e.kind, e.state) for e in resp.events]
         self.assertEqual(kinds.count(('fault', 'DO_ERROR')), 1, kinds)
         self.assertEqual(kinds.count(('resume', 'DO_ERROR')), 1, kinds)
@@ -352,9 +361,8 @@ class MissionTest(unittest.TestCase):
     def check_records_after_restart(self, s, truth):
         """The store has one `restart` event of the mission, its pick records agree with the
         world, and no fruit has two records (the same place, ids of two scans may repeat)."""
-        rospy.wait_for_service('/get_mission_records', timeout=30.0)
-        resp = rospy.ServiceProxy('/get_mission_records', GetMissionRecords)(mission_id=s['mission_id'])
-        self.assertTrue(resp.success, resp.message)
+        resp = self.stored(s, lambda r: self.picked_count(r) >= truth.collected and
+                           any(e.kind == 'restart' for e in r.events))
         restarts = [e for e in resp.events if e.kind == 'restart']
         self.assertEqual(len(restarts), 1, [(e.kind, e.detail) for e in resp.events])
         self.assertIn(s['mission_id'], restarts[0].detail)
