@@ -22,7 +22,13 @@ SimpleActionState, written anew for this workspace. Differences, all deliberate:
   lost") once the server's connection to the goal topic has been gone for two checks
   `SERVER_CHECK_PERIOD` apart (ROS time), instead of waiting out exec_timeout: actionlib sends
   no status for it any more, so its goal handle would never change. The next goal waits for
-  the server again (a retry reaches the respawned one).
+  the server again (a retry reaches the respawned one);
+- a goal the server has not acknowledged yet when every connection it went out on is gone and
+  the server (the same node name) is back on a new one ends `aborted` too ("restarted before
+  it took the goal"): the server was killed and respawned between the goal's send and its ack,
+  so the respawned one never got it, and actionlib's client, which gives up only on goals a
+  server has listed, would wait for it until exec_timeout (database_pkg's scan goal had the
+  same case: a 30 s stall after an image_processing restart).
 """
 import copy
 import threading
@@ -36,7 +42,7 @@ from control_pkg import ros_alarms
 from control_pkg.smach_compat import smach
 from control_pkg.smach_ros_compat_server import (  # noqa: F401 - RECONNECT_PERIOD ... re-exported
     RECONNECT_PERIOD, SERVER_CHECK_PERIOD, _ACTION_TOPICS, ServerWait, resend_publishers,
-    server_connected)
+    server_connected, server_links)
 
 __all__ = ['SimpleActionState']
 
@@ -200,6 +206,7 @@ class SimpleActionState(ServerWait, smach.State):
         self._exec_expired = False
         self._cancel_expired = False
         self._server_lost = False
+        self._server_restarted = False
         self._ud = None
 
         self._client = ActionClient(action_name, action_spec)
@@ -289,16 +296,26 @@ class SimpleActionState(ServerWait, smach.State):
             self._exec_expired = False
             self._cancel_expired = False
             self._server_lost = False
+            self._server_restarted = False
             self._ud = ud
         missing = [0]            # consecutive checks that found the server gone
+        sent = [frozenset(), None]   # the server links the goal went out on; its goal handle
 
         def check_server(_event):
             connected = server_connected(self._client)
             missing[0] = missing[0] + 1 if connected is False else 0
-            if missing[0] >= 2:
+            restarted = False
+            if sent[0] and sent[1] is not None and \
+                    sent[1].get_comm_state() == CommState.WAITING_FOR_GOAL_ACK:
+                links = server_links(self._client)
+                restarted = bool(links) and not (links & sent[0])
+            if missing[0] >= 2 or restarted:
                 with self._cond:
                     if self._goal_id == goal_id and not self._goal_done:
-                        self._server_lost = True
+                        if missing[0] >= 2:
+                            self._server_lost = True
+                        else:
+                            self._server_restarted = True
                         self._cond.notify_all()
 
         def transition_cb(handle):
@@ -323,6 +340,7 @@ class SimpleActionState(ServerWait, smach.State):
 
         timers = []
         handle = self._client.send_goal(goal, transition_cb, feedback_cb)
+        sent[:] = [server_links(self._client), handle]
         if self._exec_timeout:
             timers.append(self._start_timer(self._exec_timeout, '_exec_expired', goal_id))
         timers.append(ros_alarms.call_every(SERVER_CHECK_PERIOD, check_server))
@@ -332,20 +350,25 @@ class SimpleActionState(ServerWait, smach.State):
             while True:
                 with self._cond:
                     while not (self._goal_done or self._cancel_expired or rospy.is_shutdown()
-                               or self._server_lost
+                               or self._server_lost or self._server_restarted
                                or (not cancel_sent
                                    and (self._exec_expired or self.preempt_requested()))):
                         self._cond.wait()
                     done = self._goal_done
                     cancel_expired = self._cancel_expired
                     lost = self._server_lost
+                    restarted = self._server_restarted
                 if done:
                     break
-                if lost:
-                    rospy.logerr("Action server '%s' lost while it ran a goal" % self._action_name)
+                if lost or restarted:
+                    if lost:
+                        text = 'action server %s lost while it ran the goal' % self._action_name
+                    else:
+                        text = ('action server %s restarted before it took the goal (sent to '
+                                'its predecessor)' % self._action_name)
+                    rospy.logerr("Action state: %s" % text)
                     with self._cond:
-                        self.goal_status_text = ('action server %s lost while it ran the goal'
-                                                 % self._action_name)
+                        self.goal_status_text = text
                         self._server_ready = False     # the next goal waits for it again
                     outcome = 'aborted'
                     break

@@ -41,6 +41,20 @@ def server_connected(client):
     return bool(client.pub_goal.impl.has_connection(server_id))
 
 
+def server_links(client):
+    """The goal topic's connections (rospy transports) to the action server that last sent
+    `client` a status: a frozenset, empty when there is none or no status yet. A respawned
+    server (same node name) comes back on a new connection: a goal sent on links of which none
+    is left went to a server that is gone."""
+    status = getattr(client, 'last_status_msg', None)
+    header = getattr(status, '_connection_header', None) or {}
+    server_id = header.get('callerid')
+    if not server_id:
+        return frozenset()
+    return frozenset(c for c in list(client.pub_goal.impl.connections)
+                     if getattr(c, 'endpoint_id', None) == server_id)
+
+
 def resend_publishers(namespace, names):
     """Tell this node the master's current publishers of `namespace`/name for each name, as
     the master's publisherUpdate does; rospy connects the ones it is not connected to yet.
