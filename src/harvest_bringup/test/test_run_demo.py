@@ -1,6 +1,7 @@
 """tools/run_demo.py (`make demo`) when the launch ends early: the reason is reported, not a
 traceback of the clean-up."""
 
+import signal
 import subprocess
 import sys
 
@@ -23,10 +24,19 @@ def test_stop_launch_after_the_launch_ended(run_demo):
 
 
 def test_stop_launch_interrupts_a_running_launch(run_demo):
-    launch = subprocess.Popen([sys.executable, '-c', 'import time; time.sleep(60)'],
-                              start_new_session=True)
+    # SIGINT's default action restored: make test's lanes run in the background of a shell,
+    # which starts its children with SIGINT ignored, and the child then waited out the 30 s
+    # grace for its SIGKILL (roslaunch installs its own SIGINT handler). It says when its
+    # handler is in place: a SIGINT before that would be ignored
+    launch = subprocess.Popen([sys.executable, '-c', 'import signal, time; '
+                               'signal.signal(signal.SIGINT, signal.default_int_handler); '
+                               'print("ready", flush=True); time.sleep(60)'],
+                              start_new_session=True, stdout=subprocess.PIPE)
+    assert launch.stdout.readline().strip() == b'ready'
     run_demo.stop_launch(launch)
+    launch.stdout.close()
     assert launch.returncode is not None and launch.returncode != 0
+    assert launch.returncode != -signal.SIGKILL, 'the SIGINT did not end it: killed after the grace'
 
 
 def test_fatal_lines(run_demo, tmp_path):
