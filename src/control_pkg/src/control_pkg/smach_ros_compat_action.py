@@ -205,8 +205,7 @@ class SimpleActionState(ServerWait, smach.State):
         self.goal_status_text = ''   # text of the last goal's final status (the server's reason)
         self._exec_expired = False
         self._cancel_expired = False
-        self._server_lost = False
-        self._server_restarted = False
+        self._server_gone = ''      # why the goal's server is gone (lost, restarted), else ''
         self._ud = None
 
         self._client = ActionClient(action_name, action_spec)
@@ -295,8 +294,7 @@ class SimpleActionState(ServerWait, smach.State):
             self.goal_status_text = ''
             self._exec_expired = False
             self._cancel_expired = False
-            self._server_lost = False
-            self._server_restarted = False
+            self._server_gone = ''
             self._ud = ud
         missing = [0]            # consecutive checks that found the server gone
         sent = [frozenset(), None]   # the server links the goal went out on; its goal handle
@@ -304,18 +302,19 @@ class SimpleActionState(ServerWait, smach.State):
         def check_server(_event):
             connected = server_connected(self._client)
             missing[0] = missing[0] + 1 if connected is False else 0
-            restarted = False
-            if sent[0] and sent[1] is not None and \
+            gone = ''
+            if missing[0] >= 2:
+                gone = 'action server %s lost while it ran the goal' % self._action_name
+            elif sent[0] and sent[1] is not None and \
                     sent[1].get_comm_state() == CommState.WAITING_FOR_GOAL_ACK:
                 links = server_links(self._client)
-                restarted = bool(links) and not (links & sent[0])
-            if missing[0] >= 2 or restarted:
+                if links and not (links & sent[0]):
+                    gone = ('action server %s restarted before it took the goal (sent to its '
+                            'predecessor)' % self._action_name)
+            if gone:
                 with self._cond:
                     if self._goal_id == goal_id and not self._goal_done:
-                        if missing[0] >= 2:
-                            self._server_lost = True
-                        else:
-                            self._server_restarted = True
+                        self._server_gone = gone
                         self._cond.notify_all()
 
         def transition_cb(handle):
@@ -350,25 +349,19 @@ class SimpleActionState(ServerWait, smach.State):
             while True:
                 with self._cond:
                     while not (self._goal_done or self._cancel_expired or rospy.is_shutdown()
-                               or self._server_lost or self._server_restarted
+                               or self._server_gone
                                or (not cancel_sent
                                    and (self._exec_expired or self.preempt_requested()))):
                         self._cond.wait()
                     done = self._goal_done
                     cancel_expired = self._cancel_expired
-                    lost = self._server_lost
-                    restarted = self._server_restarted
+                    gone = self._server_gone
                 if done:
                     break
-                if lost or restarted:
-                    if lost:
-                        text = 'action server %s lost while it ran the goal' % self._action_name
-                    else:
-                        text = ('action server %s restarted before it took the goal (sent to '
-                                'its predecessor)' % self._action_name)
-                    rospy.logerr("Action state: %s" % text)
+                if gone:
+                    rospy.logerr("Action state: %s" % gone)
                     with self._cond:
-                        self.goal_status_text = text
+                        self.goal_status_text = gone
                         self._server_ready = False     # the next goal waits for it again
                     outcome = 'aborted'
                     break
